@@ -1,0 +1,361 @@
+"""Planner configuration: frozen, validated dataclasses whose defaults are METHOD.md's."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+
+def _fail(owner: str, name: str, value, allowed: str) -> None:
+    raise ValueError(f"{owner}.{name} = {value!r}: must be {allowed}")
+
+
+def _finite(owner, name, value, *, low=-math.inf, high=math.inf, low_open=False, allow_inf=False):
+    """Check a real number against an interval; raise ValueError naming the field otherwise."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        _fail(owner, name, value, "a real number")
+    if math.isnan(number) or (math.isinf(number) and not allow_inf):
+        _fail(owner, name, value, "a finite number" if not allow_inf else "a number or inf, not NaN")
+    too_low = number <= low if low_open else number < low
+    if too_low or number > high:
+        left = "(" if low_open else "["
+        _fail(owner, name, value, f"in {left}{low}, {high}]")
+    return number
+
+
+def _validate_fields(instance, rules: dict) -> None:
+    owner = type(instance).__name__
+    for name, kwargs in rules.items():
+        object.__setattr__(instance, name, _finite(owner, name, getattr(instance, name), **kwargs))
+
+
+@dataclass(frozen=True)
+class RobotConfig:
+    """Differential-drive robot: limits and footprint (METHOD.md section 1)."""
+
+    v_limit: float = 1.0
+    """Largest forward speed, m/s (our choice; MPEPC's wheelchair ran at about this speed)."""
+    omega_limit: float = 1.5
+    """Largest turn rate magnitude, rad/s (our choice)."""
+    accel_limit: float = 1.5
+    """Largest change of v per second between steps, m/s^2; ``inf`` turns it off (our choice)."""
+    alpha_limit: float = 3.0
+    """Largest change of omega per second between steps, rad/s^2; ``inf`` turns it off (our choice)."""
+    footprint: tuple = ((0.0, 0.0, 0.3),)
+    """Circles ``(cx, cy, radius)`` in the body frame, metres; one circle is a round robot."""
+
+    def __post_init__(self):
+        _validate_fields(self, {
+            "v_limit": dict(low=0.0, low_open=True),
+            "omega_limit": dict(low=0.0, low_open=True),
+            "accel_limit": dict(low=0.0, low_open=True, allow_inf=True),
+            "alpha_limit": dict(low=0.0, low_open=True, allow_inf=True),
+        })
+        try:
+            circles = tuple(tuple(float(c) for c in circle) for circle in self.footprint)
+        except TypeError:
+            _fail("RobotConfig", "footprint", self.footprint, "a sequence of (cx, cy, radius) triples")
+        if not circles or any(len(c) != 3 for c in circles):
+            _fail("RobotConfig", "footprint", self.footprint,
+                  "a non-empty sequence of (cx, cy, radius) triples")
+        for cx, cy, radius in circles:
+            if not all(math.isfinite(v) for v in (cx, cy, radius)) or radius <= 0:
+                _fail("RobotConfig", "footprint", self.footprint,
+                      "circles with finite centres and radius > 0")
+        object.__setattr__(self, "footprint", circles)
+
+    @property
+    def inflation_radius(self) -> float:
+        """Radius by which the map is inflated for the navigation function, m.
+
+        The largest footprint circle: a row of circles covering a rectangle passes a corridor
+        as wide as one circle, so inflating by the bounding radius would close corridors that
+        the robot can drive through lengthwise.
+        """
+        return max(radius for _, _, radius in self.footprint)
+
+    @property
+    def bounding_radius(self) -> float:
+        """Radius of the smallest origin-centred circle holding the footprint, m."""
+        return max(math.hypot(cx, cy) + radius for cx, cy, radius in self.footprint)
+
+
+@dataclass(frozen=True)
+class ControlLawConfig:
+    """Gains of the smooth pose-following law (Park and Kuipers 2011; values from IROS 2012)."""
+
+    k1: float = 1.5
+    """Weight of the target orientation error in the reference heading, dimensionless."""
+    k2: float = 3.0
+    """Gain of the heading error, dimensionless."""
+    beta: float = 0.4
+    """Slow-down with curvature, ``v = v_max / (1 + beta |kappa|^lam)``, m^lam."""
+    lam: float = 2.0
+    """Exponent of the curvature slow-down, dimensionless."""
+    r_thresh: float = 1.2
+    """Distance to the target below which speed falls linearly to zero, m."""
+
+    def __post_init__(self):
+        _validate_fields(self, {
+            "k1": dict(low=0.0, low_open=True),
+            "k2": dict(low=0.0, low_open=True),
+            "beta": dict(low=0.0),
+            "lam": dict(low=1.0),
+            "r_thresh": dict(low=0.0, low_open=True),
+        })
+
+
+@dataclass(frozen=True)
+class HorizonConfig:
+    """Planning horizon (paper, section V-A: T = 5 s at 0.2 s)."""
+
+    dt: float = 0.2
+    """Step length and replanning period, s."""
+    n_steps: int = 25
+    """Number of steps N in the horizon."""
+
+    def __post_init__(self):
+        _validate_fields(self, {"dt": dict(low=0.0, low_open=True, high=5.0)})
+        if isinstance(self.n_steps, bool) or not isinstance(self.n_steps, int) or not (
+            1 <= self.n_steps <= 500
+        ):
+            _fail("HorizonConfig", "n_steps", self.n_steps, "an integer in [1, 500]")
+
+    @property
+    def duration(self) -> float:
+        """Horizon length N * dt, s."""
+        return self.n_steps * self.dt
+
+
+@dataclass(frozen=True)
+class BoundsConfig:
+    """Box on ``z = (r, theta, delta, v_max)`` (IROS 2012); v_max's upper bound is the robot's v_limit."""
+
+    r_min: float = 0.05
+    """Smallest target distance, m: a small positive floor keeps the law defined."""
+    r_max: float = 8.0
+    """Largest target distance, m."""
+    theta_max: float = 1.0
+    """Largest |theta|, target orientation relative to the line of sight, rad."""
+    delta_max: float = 1.8
+    """Largest |delta|, robot heading relative to the line of sight, rad."""
+
+    def __post_init__(self):
+        _validate_fields(self, {
+            "r_min": dict(low=0.0, low_open=True),
+            "r_max": dict(low=0.0, low_open=True),
+            "theta_max": dict(low=0.0, high=math.pi),
+            "delta_max": dict(low=0.0, high=math.pi),
+        })
+        if self.r_max <= self.r_min:
+            _fail("BoundsConfig", "r_max", self.r_max, f"greater than r_min = {self.r_min}")
+
+
+@dataclass(frozen=True)
+class CostConfig:
+    """Weights and widths of the MPEPC / DS-MPEPC cost (METHOD.md section 5)."""
+
+    sigma_static: float = 0.1
+    """Width of the collision-probability bell for the map, m (IROS 2012)."""
+    sigma_dynamic: float = 0.2
+    """Width of the collision-probability bell for moving objects, m (IROS 2012)."""
+    c_heading: float = 0.2
+    """Weight of the terminal heading error against the NF descent direction, 1/rad (IROS 2012)."""
+    c_v: float = 0.2
+    """Action weight on v^2, s/m^2 per second of horizon (IROS 2012)."""
+    c_w: float = 0.1
+    """Action weight on omega^2, s/rad^2 per second of horizon (IROS 2012)."""
+    c_collision: float = 0.1
+    """Cost of a collision per step, weighted by 1 - survivability (IROS 2012)."""
+    a: float = 0.7
+    """Largest reduction of the collision probability by the anticipatory factor (paper)."""
+    s_ttc: float = 0.5
+    """Width sigma_{1/TTC} of the inverse time-to-collision bells, 1/s (paper)."""
+    s_ttg: float = 1e-3
+    """Width sigma_{1/TTG} of the inverse time-to-goal bell, 1/s (paper)."""
+    ttc_range: float = 8.0
+    """Range of the static time-to-collision ray march, m: beyond it 1/TTC = 0 (our choice)."""
+
+    def __post_init__(self):
+        positive = dict(low=0.0, low_open=True)
+        _validate_fields(self, {
+            "sigma_static": positive,
+            "sigma_dynamic": positive,
+            "c_heading": dict(low=0.0),
+            "c_v": dict(low=0.0),
+            "c_w": dict(low=0.0),
+            "c_collision": dict(low=0.0),
+            "a": dict(low=0.0, high=1.0),
+            "s_ttc": positive,
+            "s_ttg": positive,
+            "ttc_range": positive,
+        })
+
+
+@dataclass(frozen=True)
+class SmoothingConfig:
+    """Temperatures of the smooth stand-ins used by the NLP, each in the unit of what it smooths.
+
+    0 everywhere gives the exact cost; the NLP graph uses these values. See ``smooth.py``.
+    """
+
+    distance: float = 0.02
+    """Soft-min / soft-clip temperature for distances, m."""
+    speed: float = 0.02
+    """Relative soft-min temperature for the speed caps of the law, dimensionless
+    (the smooth speed is within a factor 2^-t of the exact one)."""
+    acceleration: float = 0.01
+    """Soft-clip temperature of the acceleration limit, m/s."""
+    rate: float = 0.02
+    """Soft-clip temperature of the turn-rate-change limit, rad/s."""
+    curvature: float = 0.01
+    """Smoothing of |kappa| in the omega limit, 1/m."""
+    inverse_time: float = 0.02
+    """Soft-clip temperature for inverse times 1/TTC and 1/TTG, 1/s."""
+    angle: float = 0.01
+    """Smoothing of the |sin| in the heading error, dimensionless."""
+
+    def __post_init__(self):
+        _validate_fields(self, {name.name: dict(low=0.0) for name in dataclasses.fields(self)})
+
+    @classmethod
+    def exact(cls) -> "SmoothingConfig":
+        """All temperatures 0: the exact (non-smooth) forms."""
+        return cls(**{f.name: 0.0 for f in dataclasses.fields(cls)})
+
+    def scaled(self, factor: float) -> "SmoothingConfig":
+        """Every temperature times ``factor`` (for convergence studies)."""
+        return dataclasses.replace(
+            self, **{f.name: getattr(self, f.name) * factor for f in dataclasses.fields(self)}
+        )
+
+
+@dataclass(frozen=True)
+class DockingConfig:
+    """Docking near a fixed goal (IROS 2012, METHOD.md section 7)."""
+
+    radius: float = 2.0
+    """Within this distance of a fixed goal the target pose is the goal itself, m (IROS 2012)."""
+    min_survival: float = 0.9
+    """Docking only while the docking trajectory's horizon survivability stays above this (our choice)."""
+
+    def __post_init__(self):
+        _validate_fields(self, {"radius": dict(low=0.0), "min_survival": dict(low=0.0, high=1.0)})
+
+
+@dataclass(frozen=True)
+class PlannerConfig:
+    """Everything a planner needs. MPEPC, DS-MPEPC and the two ablations are the two switches.
+
+    Examples
+    --------
+    >>> PlannerConfig.mpepc().anticipatory_pc
+    False
+    >>> import dataclasses
+    >>> cfg = dataclasses.replace(PlannerConfig(), cost=CostConfig(s_ttc=0.3))
+    """
+
+    robot: RobotConfig = field(default_factory=RobotConfig)
+    control_law: ControlLawConfig = field(default_factory=ControlLawConfig)
+    horizon: HorizonConfig = field(default_factory=HorizonConfig)
+    bounds: BoundsConfig = field(default_factory=BoundsConfig)
+    cost: CostConfig = field(default_factory=CostConfig)
+    smoothing: SmoothingConfig = field(default_factory=SmoothingConfig)
+    docking: DockingConfig = field(default_factory=DockingConfig)
+    anticipatory_pc: bool = True
+    """DS-MPEPC's collision probability with the time-to-collision factor (paper eq. 4)."""
+    terminal_cost: bool = True
+    """DS-MPEPC's terminal cost on time to goal and time to collision (paper section IV-B)."""
+
+    def __post_init__(self):
+        expected = {
+            "robot": RobotConfig, "control_law": ControlLawConfig, "horizon": HorizonConfig,
+            "bounds": BoundsConfig, "cost": CostConfig, "smoothing": SmoothingConfig,
+            "docking": DockingConfig,
+        }
+        for name, kind in expected.items():
+            if not isinstance(getattr(self, name), kind):
+                _fail("PlannerConfig", name, getattr(self, name), f"a {kind.__name__}")
+        for name in ("anticipatory_pc", "terminal_cost"):
+            if not isinstance(getattr(self, name), bool):
+                _fail("PlannerConfig", name, getattr(self, name), "True or False")
+
+    @classmethod
+    def mpepc(cls, **changes) -> "PlannerConfig":
+        """MPEPC (IROS 2012): distance-only collision probability, no terminal cost."""
+        return cls(anticipatory_pc=False, terminal_cost=False, **changes)
+
+    @classmethod
+    def ds_mpepc(cls, **changes) -> "PlannerConfig":
+        """DS-MPEPC (the paper): both switches on."""
+        return cls(anticipatory_pc=True, terminal_cost=True, **changes)
+
+    @classmethod
+    def variant(cls, name: str, **changes) -> "PlannerConfig":
+        """One of ``mpepc``, ``ds-mpepc``, ``pc-only``, ``terminal-only``."""
+        switches = VARIANTS.get(name)
+        if switches is None:
+            raise ValueError(f"variant = {name!r}: must be one of {', '.join(VARIANTS)}")
+        return cls(anticipatory_pc=switches[0], terminal_cost=switches[1], **changes)
+
+    @property
+    def variant_name(self) -> str:
+        """The name of this configuration's pair of switches."""
+        for name, switches in VARIANTS.items():
+            if switches == (self.anticipatory_pc, self.terminal_cost):
+                return name
+        raise AssertionError("unreachable: every pair of switches is a variant")
+
+    @property
+    def z_lower(self) -> tuple:
+        """Lower bounds on z = (r, theta, delta, v_max)."""
+        b = self.bounds
+        return (b.r_min, -b.theta_max, -b.delta_max, 0.0)
+
+    @property
+    def z_upper(self) -> tuple:
+        """Upper bounds on z = (r, theta, delta, v_max)."""
+        b = self.bounds
+        return (b.r_max, b.theta_max, b.delta_max, self.robot.v_limit)
+
+
+VARIANTS = {
+    "mpepc": (False, False),
+    "ds-mpepc": (True, True),
+    "pc-only": (True, False),
+    "terminal-only": (False, True),
+}
+"""Variant name -> (anticipatory_pc, terminal_cost)."""
+
+
+@dataclass(frozen=True)
+class RobotState:
+    """Robot pose and measured velocity in the world frame."""
+
+    x: float
+    """Position x, m."""
+    y: float
+    """Position y, m."""
+    phi: float
+    """Heading, rad."""
+    v: float = 0.0
+    """Measured forward speed, m/s."""
+    omega: float = 0.0
+    """Measured turn rate, rad/s."""
+
+    def __post_init__(self):
+        _validate_fields(self, {name: {} for name in ("x", "y", "phi", "v", "omega")})
+
+    @property
+    def pose(self) -> tuple:
+        """``(x, y, phi)``."""
+        return (self.x, self.y, self.phi)
+
+    def as_array(self):
+        """``[x, y, phi, v, omega]`` as a float numpy array."""
+        import numpy as np
+
+        return np.array([self.x, self.y, self.phi, self.v, self.omega], dtype=float)

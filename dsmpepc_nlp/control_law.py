@@ -1,0 +1,235 @@
+"""The smooth pose-following control law and the horizon rollout, written once for numpy and CasADi."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from .config import PlannerConfig, RobotState, SmoothingConfig
+from .smooth import CASADI, NUMPY, sabs, smax, smin, smin_positive
+
+EXACT = SmoothingConfig.exact()
+
+_RHO_GUARD = 1e-9
+"""Added in quadrature to the distance to the target, m: keeps 1/rho and its derivative finite."""
+_SINC_SERIES = 1e-4
+"""Below this |u| the arc integration uses the series of sinc(u)."""
+_KAPPA_FLOOR = 1e-12
+"""Smallest |kappa| used to divide omega_limit, 1/m."""
+
+
+def wrap(angle, ops=NUMPY):
+    """Angle wrapped to (-pi, pi], rad."""
+    return ops.atan2(ops.sin(angle), ops.cos(angle))
+
+
+def target_pose(z, pose, ops=NUMPY):
+    """Target pose T of ``z = (r, theta, delta, v_max)`` seen from ``pose = (x, y, phi)``.
+
+    ``los0 = phi - delta``, ``T = p + r (cos los0, sin los0)``, ``phi_T = los0 + theta``
+    (METHOD.md section 2). Each argument is a sequence of scalars or arrays of one shape.
+    """
+    r, theta, delta = z[0], z[1], z[2]
+    los = pose[2] - delta
+    return (pose[0] + r * ops.cos(los), pose[1] + r * ops.sin(los), los + theta)
+
+
+def z_from_target(target, v_max, pose, ops=NUMPY):
+    """Inverse of :func:`target_pose`: the ``z`` whose target, seen from ``pose``, is ``target``.
+
+    This is MPEPC's warm start: last cycle's target re-expressed in the robot's new frame.
+    """
+    dx, dy = target[0] - pose[0], target[1] - pose[1]
+    r = ops.sqrt(dx * dx + dy * dy)
+    los = ops.atan2(dy, dx)
+    return (r, wrap(target[2] - los, ops), wrap(pose[2] - los, ops), v_max)
+
+
+def law_command(pose, target, v_max, config: PlannerConfig, smoothing=EXACT, ops=NUMPY):
+    """Speed and turn rate the law asks for at ``pose`` toward ``target``, omega limit applied.
+
+    Returns ``(v, omega)``: m/s, rad/s. Rate limits are applied by :func:`step`.
+    """
+    law, robot = config.control_law, config.robot
+    dx, dy = target[0] - pose[0], target[1] - pose[1]
+    rho = ops.sqrt(dx * dx + dy * dy + _RHO_GUARD**2)
+    los = ops.atan2(dy, dx)
+    th = wrap(target[2] - los, ops)
+    de = wrap(pose[2] - los, ops)
+    # Park and Kuipers (2011), eq. for kappa; theta and delta measured from the line of sight.
+    k1th = law.k1 * th
+    kappa = -(
+        law.k2 * (de - ops.atan(-k1th)) + (1.0 + law.k1 / (1.0 + k1th * k1th)) * ops.sin(de)
+    ) / rho
+    abs_kappa = sabs(kappa, smoothing.curvature, ops)
+    slowdown = kappa * kappa if law.lam == 2.0 else abs_kappa**law.lam
+    v = smin_positive(v_max / (1.0 + law.beta * slowdown), v_max * rho / law.r_thresh,
+                      smoothing.speed, ops)
+    # The omega limit scales v down and keeps the curvature.
+    v_cap = robot.omega_limit / ops.fmax(abs_kappa, _KAPPA_FLOOR)
+    v = smin_positive(v, v_cap, smoothing.speed, ops)
+    return v, kappa * v
+
+
+def _rate_limit(value, previous, limit, dt, temperature, ops):
+    if limit == float("inf"):
+        return value
+    low, high = previous - limit * dt, previous + limit * dt
+    return smin(smax(value, low, temperature, ops), high, temperature, ops)
+
+
+def sinc(u, ops=NUMPY):
+    """``sin(u)/u`` with ``sinc(0) = 1``, safe for automatic differentiation."""
+    small = ops.fabs(u) < _SINC_SERIES
+    u_safe = ops.where(small, 1.0, u)
+    return ops.where(small, 1.0 - u * u / 6.0, ops.sin(u_safe) / u_safe)
+
+
+def arc_step(pose, v, omega, dt, ops=NUMPY):
+    """Pose after holding ``(v, omega)`` for ``dt`` seconds, integrated exactly along the arc."""
+    half = omega * dt / 2.0
+    chord = v * dt * sinc(half, ops)
+    heading = pose[2] + half
+    return (pose[0] + chord * ops.cos(heading), pose[1] + chord * ops.sin(heading),
+            pose[2] + omega * dt)
+
+
+def step(carry, target, v_max, config: PlannerConfig, smoothing=EXACT, ops=NUMPY):
+    """One horizon step: law, rate limits from the previous command, exact arc.
+
+    ``carry = (x, y, phi, v_prev, omega_prev)``. Returns ``(carry_next, v, omega)``.
+    """
+    robot, dt = config.robot, config.horizon.dt
+    v, omega = law_command(carry[:3], target, v_max, config, smoothing, ops)
+    v = _rate_limit(v, carry[3], robot.accel_limit, dt, smoothing.acceleration, ops)
+    omega = _rate_limit(omega, carry[4], robot.alpha_limit, dt, smoothing.rate, ops)
+    x, y, phi = arc_step(carry[:3], v, omega, dt, ops)
+    return (x, y, phi, v, omega), v, omega
+
+
+def clamp_measured(state: RobotState, config: PlannerConfig):
+    """Measured ``(v, omega)`` clipped to the robot's limits, the start of the rate limits."""
+    robot = config.robot
+    return (min(max(state.v, 0.0), robot.v_limit),
+            min(max(state.omega, -robot.omega_limit), robot.omega_limit))
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A rollout of the control law.
+
+    Attributes
+    ----------
+    z : ndarray, (4,) or (n, 4)
+        The trajectory parameters ``(r, theta, delta, v_max)``.
+    poses : ndarray, (N+1, 3) or (n, N+1, 3)
+        ``(x, y, phi)`` at each step; ``poses[..., 0, :]`` is the start pose. m, rad.
+    v, omega : ndarray, (N,) or (n, N)
+        Speed (m/s) and turn rate (rad/s) held over each step.
+    target : ndarray, (3,) or (n, 3)
+        The target pose T in the world, m and rad.
+    """
+
+    z: np.ndarray
+    poses: np.ndarray
+    v: np.ndarray
+    omega: np.ndarray
+    target: np.ndarray
+
+    def __len__(self):
+        return 1 if self.z.ndim == 1 else self.z.shape[0]
+
+    def __getitem__(self, index) -> "Trajectory":
+        """The trajectories at ``index`` of a batch."""
+        return Trajectory(self.z[index], self.poses[index], self.v[index], self.omega[index],
+                          self.target[index])
+
+
+def rollout(z, state: RobotState, config: PlannerConfig, smoothing=EXACT) -> Trajectory:
+    """Roll the control law out over the horizon for one or many ``z``.
+
+    Parameters
+    ----------
+    z : array_like, (4,) or (n, 4)
+        ``(r [m], theta [rad], delta [rad], v_max [m/s])``; each within the config's bounds.
+    state : RobotState
+        Start pose and measured velocity (the rate limits start from it).
+    config : PlannerConfig
+    smoothing : SmoothingConfig, optional
+        Temperatures of the stand-ins; exact by default.
+
+    Returns
+    -------
+    Trajectory
+        With a leading batch axis exactly when ``z`` is 2-D.
+    """
+    z = np.asarray(z, dtype=float)
+    if z.shape[-1:] != (4,) or z.ndim not in (1, 2):
+        raise ValueError(f"z has shape {z.shape}: must be (4,) or (n, 4)")
+    if not np.all(np.isfinite(z)):
+        raise ValueError("z contains NaN or inf: must be finite")
+    batch = np.atleast_2d(z)
+    n, n_steps = batch.shape[0], config.horizon.n_steps
+    ones = np.ones(n)
+    v0, omega0 = clamp_measured(state, config)
+    carry = (state.x * ones, state.y * ones, state.phi * ones, v0 * ones, omega0 * ones)
+    target = target_pose(batch.T, carry[:3])
+    v_max = batch[:, 3]
+    poses = np.empty((n, n_steps + 1, 3))
+    poses[:, 0] = np.stack(carry[:3], axis=-1)
+    v = np.empty((n, n_steps))
+    omega = np.empty((n, n_steps))
+    for j in range(n_steps):
+        carry, v[:, j], omega[:, j] = step(carry, target, v_max, config, smoothing)
+        poses[:, j + 1] = np.stack(carry[:3], axis=-1)
+    result = Trajectory(batch, poses, v, omega, np.stack(target, axis=-1))
+    return result[0] if z.ndim == 1 else result
+
+
+def step_function(config: PlannerConfig, smoothing=None) -> ca.Function:
+    """One step of the law as a CasADi ``Function`` (SX): ``(carry[5], target[3], v_max) ->
+    (carry_next[5], v, omega)``; ``smoothing`` defaults to ``config.smoothing``."""
+    smoothing = config.smoothing if smoothing is None else smoothing
+    carry = ca.SX.sym("carry", 5)
+    target = ca.SX.sym("target", 3)
+    v_max = ca.SX.sym("v_max")
+    nxt, v, omega = step(ca.vertsplit(carry), ca.vertsplit(target), v_max, config, smoothing,
+                         CASADI)
+    return ca.Function("law_step", [carry, target, v_max], [ca.vertcat(*nxt), v, omega],
+                       ["carry", "target", "v_max"], ["carry_next", "v", "omega"])
+
+
+def symbolic_rollout(z, state, config: PlannerConfig, smoothing=None):
+    """Rollout on CasADi symbols: ``z`` (4x1), ``state`` (5x1: x, y, phi, v, omega).
+
+    Returns ``(poses, v, omega, target)`` as ``(N+1)x3``, ``Nx1``, ``Nx1``, ``3x1`` expressions.
+    The measured velocity is expected already clamped (see :func:`clamp_measured`).
+    """
+    law_step = step_function(config, smoothing)
+    pose0 = [state[0], state[1], state[2]]
+    target = ca.vertcat(*target_pose([z[0], z[1], z[2]], pose0, CASADI))
+    carry = state
+    poses, vs, omegas = [ca.horzcat(*pose0)], [], []
+    for _ in range(config.horizon.n_steps):
+        carry, v, omega = law_step(carry, target, z[3])
+        poses.append(carry[:3].T)
+        vs.append(v)
+        omegas.append(omega)
+    return ca.vertcat(*poses), ca.vertcat(*vs), ca.vertcat(*omegas), target
+
+
+def rollout_function(config: PlannerConfig, smoothing=None) -> ca.Function:
+    """The rollout as a CasADi ``Function`` named ``rollout``.
+
+    Inputs ``z`` (4), ``state`` (5: x, y, phi, v, omega; measured velocity already within the
+    limits); outputs ``poses`` ((N+1) x 3), ``v`` (N), ``omega`` (N), ``target`` (3).
+    ``smoothing`` defaults to ``config.smoothing``; pass ``SmoothingConfig.exact()`` for the
+    exact law.
+    """
+    z = ca.SX.sym("z", 4)
+    state = ca.SX.sym("state", 5)
+    poses, v, omega, target = symbolic_rollout(z, state, config, smoothing)
+    return ca.Function("rollout", [z, state], [poses, v, omega, target],
+                       ["z", "state"], ["poses", "v", "omega", "target"])

@@ -1,0 +1,770 @@
+"""Static map (occupancy grid, signed distance, navigation function) and dynamic obstacles."""
+
+from __future__ import annotations
+
+import functools
+import math
+import os
+import tempfile
+from collections import OrderedDict
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import yaml
+from scipy import ndimage
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
+
+FAR = 1e3
+"""Signed distance (m) reported everywhere on a grid without any occupied cell."""
+
+_NAV_CACHE_SIZE = 16  # navigation functions kept per world; moving goals would grow it forever
+
+
+# ---------------------------------------------------------------------------------------------
+# validation helpers
+
+
+def _finite_vector(name, value, size):
+    arr = np.array(value, dtype=float)
+    if arr.shape != (size,) or not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}={value!r}: expected {size} finite numbers")
+    return arr
+
+
+def _positive(name, value, allow_zero=False):
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}={value!r}: expected a finite number") from None
+    ok = math.isfinite(x) and (x >= 0.0 if allow_zero else x > 0.0)
+    if not ok or isinstance(value, bool):
+        allowed = "finite and >= 0" if allow_zero else "finite and > 0"
+        raise ValueError(f"{name}={value!r}: expected a number {allowed}")
+    return x
+
+
+def _points(name, points):
+    arr = np.asarray(points, dtype=float)
+    if arr.ndim < 1 or arr.shape[-1] != 2:
+        raise ValueError(f"{name} has shape {arr.shape}: expected (..., 2)")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} contains non-finite values: expected finite coordinates (m)")
+    return arr
+
+
+def _readonly(arr):
+    arr.setflags(write=False)
+    return arr
+
+
+def _interpolate(table, resolution, origin, points):
+    """Bilinear interpolation of ``table`` (ny, nx) between cell centres at ``points`` (..., 2).
+
+    Points outside the cell-centre box are clamped to it and get the distance (m) to their clamped
+    point added, so the result keeps growing away from the grid.
+    """
+    ny, nx = table.shape
+    u = (points[..., 0] - origin[0]) / resolution - 0.5
+    v = (points[..., 1] - origin[1]) / resolution - 0.5
+    uc = np.clip(u, 0.0, nx - 1)
+    vc = np.clip(v, 0.0, ny - 1)
+    outside = resolution * np.hypot(u - uc, v - vc)
+    ix0 = np.minimum(np.floor(uc).astype(np.intp), max(nx - 2, 0))
+    iy0 = np.minimum(np.floor(vc).astype(np.intp), max(ny - 2, 0))
+    ix1 = np.minimum(ix0 + 1, nx - 1)
+    iy1 = np.minimum(iy0 + 1, ny - 1)
+    fx = uc - ix0
+    fy = vc - iy0
+    bottom = (1.0 - fx) * table[iy0, ix0] + fx * table[iy0, ix1]
+    top = (1.0 - fx) * table[iy1, ix0] + fx * table[iy1, ix1]
+    return (1.0 - fy) * bottom + fy * top + outside
+
+
+# ---------------------------------------------------------------------------------------------
+# PGM
+
+
+def _read_pgm(path):
+    """Read a binary (P5) or ascii (P2) PGM; return (pixels (h, w) int, maxval). Row 0 is the top."""
+    try:
+        data = Path(path).read_bytes()
+    except OSError as exc:
+        raise ValueError(f"image {str(path)!r}: cannot read ({exc.strerror})") from None
+    magic = data[:2]
+    if magic not in (b"P5", b"P2"):
+        raise ValueError(f"image {str(path)!r}: not a PGM file (magic {magic!r}, expected P5 or P2)")
+
+    pos = 2
+    header = []
+    while len(header) < 3:
+        while pos < len(data) and (data[pos : pos + 1].isspace() or data[pos : pos + 1] == b"#"):
+            if data[pos : pos + 1] == b"#":
+                end = data.find(b"\n", pos)
+                pos = len(data) if end < 0 else end + 1
+            else:
+                pos += 1
+        start = pos
+        while pos < len(data) and not data[pos : pos + 1].isspace() and data[pos : pos + 1] != b"#":
+            pos += 1
+        token = data[start:pos]
+        if not token.isdigit():
+            raise ValueError(
+                f"image {str(path)!r}: truncated or malformed PGM header (got {token!r} where "
+                "width, height and maxval are expected)"
+            )
+        header.append(int(token))
+    width, height, maxval = header
+    if width < 1 or height < 1 or not 1 <= maxval <= 65535:
+        raise ValueError(
+            f"image {str(path)!r}: PGM header width={width}, height={height}, maxval={maxval}: "
+            "expected width, height >= 1 and 1 <= maxval <= 65535"
+        )
+
+    count = width * height
+    if magic == b"P5":
+        pos += 1  # exactly one whitespace byte separates maxval from the raster
+        dtype = np.dtype(">u2") if maxval > 255 else np.dtype(np.uint8)
+        nbytes = count * dtype.itemsize
+        if len(data) - pos < nbytes:
+            raise ValueError(
+                f"image {str(path)!r}: truncated PGM raster ({len(data) - pos} bytes, "
+                f"expected {nbytes} for {width}x{height})"
+            )
+        pixels = np.frombuffer(data, dtype=dtype, count=count, offset=pos).astype(np.int64)
+    else:
+        text = b"\n".join(line.split(b"#", 1)[0] for line in data[pos:].splitlines())
+        tokens = text.split()
+        if len(tokens) < count or not all(t.isdigit() for t in tokens[:count]):
+            raise ValueError(
+                f"image {str(path)!r}: truncated or malformed ascii PGM raster "
+                f"(expected {count} integers for {width}x{height})"
+            )
+        pixels = np.array([int(t) for t in tokens[:count]], dtype=np.int64)
+    if np.any(pixels > maxval):
+        raise ValueError(f"image {str(path)!r}: pixel values exceed maxval={maxval}")
+    return pixels.reshape(height, width), maxval
+
+
+def _atomic_write(path, payload):
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(payload)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+# ---------------------------------------------------------------------------------------------
+# occupancy grid
+
+
+class OccupancyGrid:
+    """Static occupancy grid. Immutable after construction.
+
+    Parameters
+    ----------
+    occupied : array_like of bool or {0, 1}, shape (ny, nx)
+        ``occupied[iy, ix]``; ``iy`` grows with world y and ``ix`` with world x. ny, nx >= 1.
+    resolution : float
+        Cell side (m), finite and > 0.
+    origin : array_like, shape (2,)
+        World (x, y) (m) of the lower-left corner of cell [0, 0]. Cell [iy, ix] has its centre at
+        ``origin + (ix + 0.5, iy + 0.5) * resolution``.
+
+    Notes
+    -----
+    Everything outside the grid counts as free space.
+    """
+
+    def __init__(self, occupied, resolution, origin=(0.0, 0.0)):
+        arr = np.asarray(occupied)
+        if arr.ndim != 2 or arr.shape[0] < 1 or arr.shape[1] < 1:
+            raise ValueError(f"occupied has shape {arr.shape}: expected (ny, nx) with ny, nx >= 1")
+        if arr.dtype != bool:
+            if not np.issubdtype(arr.dtype, np.number) or not np.all((arr == 0) | (arr == 1)):
+                raise ValueError(
+                    f"occupied has dtype {arr.dtype} with values other than 0/1: expected bool or 0/1"
+                )
+        self._occupied = _readonly(np.array(arr, dtype=bool))
+        self._resolution = _positive("resolution", resolution)
+        self._origin = _readonly(_finite_vector("origin", origin, 2))
+
+    @classmethod
+    def from_array(cls, occupied, resolution, origin=(0.0, 0.0)) -> OccupancyGrid:
+        """Same as the constructor; see :class:`OccupancyGrid`."""
+        return cls(occupied, resolution, origin)
+
+    @property
+    def occupied(self) -> np.ndarray:
+        """Read-only bool array (ny, nx)."""
+        return self._occupied
+
+    @property
+    def resolution(self) -> float:
+        """Cell side (m)."""
+        return self._resolution
+
+    @property
+    def origin(self) -> np.ndarray:
+        """Read-only (2,) world position (m) of the lower-left corner of cell [0, 0]."""
+        return self._origin
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(ny, nx)."""
+        return self._occupied.shape
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(xmin, ymin, xmax, ymax) of the grid's outer cell edges (m)."""
+        ny, nx = self.shape
+        x0, y0 = (float(c) for c in self._origin)
+        return (x0, y0, x0 + nx * self._resolution, y0 + ny * self._resolution)
+
+    def __repr__(self):
+        return (
+            f"OccupancyGrid(shape={self.shape}, resolution={self._resolution}, "
+            f"origin={self._origin.tolist()}, occupied_cells={int(self._occupied.sum())})"
+        )
+
+    # -- signed distance -----------------------------------------------------------------------
+
+    @functools.cached_property
+    def signed_distance(self) -> np.ndarray:
+        """Signed distance (m) at each cell centre, read-only (ny, nx).
+
+        Positive in free space: the distance to the nearest occupied cell's boundary (a free cell
+        next to an occupied one has ``0.5 * resolution``). Negative inside obstacles: minus the
+        distance to the nearest free cell's boundary; cells outside the grid are free. ``FAR``
+        everywhere when no cell is occupied.
+        """
+        occ = self._occupied
+        if not occ.any():
+            return _readonly(np.full(occ.shape, FAR))
+        # One ring of free cells stands for the free world outside the grid.
+        padded = np.pad(occ, 1, constant_values=False)
+        to_occupied = ndimage.distance_transform_edt(~padded)[1:-1, 1:-1]
+        to_free = ndimage.distance_transform_edt(padded)[1:-1, 1:-1]
+        cells = np.where(occ, -(to_free - 0.5), to_occupied - 0.5)
+        return _readonly(cells * self._resolution)
+
+    def distance(self, points) -> np.ndarray:
+        """Signed distance (m) to static structure at world points.
+
+        Parameters
+        ----------
+        points : array_like, shape (..., 2)
+            World positions (m).
+
+        Returns
+        -------
+        ndarray, shape (...)
+            Bilinear interpolation of :attr:`signed_distance` between cell centres. Outside the
+            cell-centre box: the value at the clamped point plus the distance to it.
+        """
+        pts = _points("points", points)
+        return _interpolate(self.signed_distance, self._resolution, self._origin, pts)
+
+    def ray_distance(self, origins, headings, clearance, max_range) -> np.ndarray:
+        """Free travel (m) along rays until the distance to static structure drops to ``clearance``.
+
+        Sphere tracing: ``s += max(distance(p) - clearance, 0.25 * resolution)``, reporting ``s``
+        at the first sample with ``distance <= clearance`` (so the answer may overshoot by up to
+        a quarter cell on oblique approaches; it is exact head-on against a straight wall).
+
+        Parameters
+        ----------
+        origins : array_like, shape (..., 2)
+            Ray starts (m).
+        headings : array_like, shape (...)
+            Ray directions (rad).
+        clearance : float or array_like broadcastable to (...)
+            Distance (m) at which a ray counts as hitting, e.g. a footprint circle's radius.
+        max_range : float
+            Longest ray (m), finite and >= 0.
+
+        Returns
+        -------
+        ndarray, shape (...)
+            Hit distance (m); 0 when the origin is already within ``clearance``; ``inf`` when
+            nothing is hit within ``max_range``.
+        """
+        orig = _points("origins", origins)
+        head = np.asarray(headings, dtype=float)
+        clear = np.asarray(clearance, dtype=float)
+        max_range = _positive("max_range", max_range, allow_zero=True)
+        if not np.all(np.isfinite(head)):
+            raise ValueError("headings contains non-finite values: expected finite angles (rad)")
+        if not np.all(np.isfinite(clear)):
+            raise ValueError("clearance contains non-finite values: expected finite distances (m)")
+        try:
+            shape = np.broadcast_shapes(orig.shape[:-1], head.shape, clear.shape)
+        except ValueError:
+            raise ValueError(
+                f"origins {orig.shape}, headings {head.shape} and clearance {clear.shape}: "
+                "expected broadcastable shapes (..., 2), (...), (...)"
+            ) from None
+        start = np.broadcast_to(orig, shape + (2,)).reshape(-1, 2)
+        direction = np.stack([np.cos(head), np.sin(head)], axis=-1)
+        direction = np.broadcast_to(direction, shape + (2,)).reshape(-1, 2)
+        clear = np.broadcast_to(clear, shape).reshape(-1)
+
+        step_floor = 0.25 * self._resolution
+        result = np.full(start.shape[0], np.inf)
+        travel = np.zeros(start.shape[0])
+        active = np.arange(start.shape[0])
+        for _ in range(math.ceil(max_range / step_floor) + 1):
+            if active.size == 0:
+                break
+            s = travel[active]
+            d = self.distance(start[active] + s[:, None] * direction[active])
+            hit = d <= clear[active] + 1e-9
+            result[active[hit]] = s[hit]
+            # A ray that was already checked at max_range is done; others stop at max_range once.
+            step = np.maximum(d - clear[active], step_floor)
+            alive = ~hit & (s < max_range)
+            travel[active] = np.minimum(s + step, max_range)
+            active = active[alive]
+        return result.reshape(shape)
+
+    # -- ROS map_server I/O --------------------------------------------------------------------
+
+    @classmethod
+    def from_yaml(cls, path) -> OccupancyGrid:
+        """Load a ROS ``map_server`` map: a YAML file and the PGM image it names.
+
+        Honoured fields: ``image`` (relative to the YAML's folder), ``resolution`` (m/cell),
+        ``origin`` [x, y, yaw] (yaw must be 0), ``negate`` (0/1, default 0), ``occupied_thresh``
+        (default 0.65), ``free_thresh`` (default 0.196), ``mode`` ("trinary" default, or "scale").
+
+        A pixel p of a PGM with maximum value M has occupancy ``(M - p) / M`` (``p / M`` when
+        negated), i.e. ``(255 - p) / 255`` for 8-bit images; it is occupied when that exceeds
+        ``occupied_thresh``. Unknown cells (between ``free_thresh`` and ``occupied_thresh``) count
+        as FREE for planning. Image row 0 is the top of the map (largest y).
+
+        Raises
+        ------
+        ValueError
+            Naming the file and the field for unreadable YAML, missing or invalid fields, a
+            missing image, or a truncated or non-PGM image.
+        """
+        path = Path(path)
+        where = f"map file {str(path)!r}"
+        try:
+            meta = yaml.safe_load(path.read_text())
+        except OSError as exc:
+            raise ValueError(f"{where}: cannot read ({exc.strerror})") from None
+        except yaml.YAMLError as exc:
+            raise ValueError(f"{where}: invalid YAML ({exc})") from None
+        if not isinstance(meta, dict):
+            raise ValueError(f"{where}: expected a mapping with image, resolution, origin")
+        for key in ("image", "resolution", "origin"):
+            if key not in meta:
+                raise ValueError(f"{where}: missing field {key!r}")
+
+        def field(fn, key, *args):
+            try:
+                return fn(key, meta[key], *args)
+            except ValueError as exc:
+                raise ValueError(f"{where}: {exc}") from None
+
+        resolution = field(_positive, "resolution")
+        origin = meta["origin"]
+        if not isinstance(origin, (list, tuple)) or len(origin) != 3:
+            raise ValueError(f"{where}: origin={origin!r}: expected [x, y, yaw]")
+        origin = field(_finite_vector, "origin", 3)
+        if origin[2] != 0.0:
+            raise ValueError(f"{where}: origin yaw={origin[2]!r}: only 0 is supported")
+        negate = meta.get("negate", 0)
+        if negate not in (0, 1):
+            raise ValueError(f"{where}: negate={negate!r}: expected 0 or 1")
+        thresholds = {}
+        for key, default in (("occupied_thresh", 0.65), ("free_thresh", 0.196)):
+            value = meta.get(key, default)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value <= 1:
+                raise ValueError(f"{where}: {key}={value!r}: expected a number in [0, 1]")
+            thresholds[key] = float(value)
+        if thresholds["free_thresh"] > thresholds["occupied_thresh"]:
+            raise ValueError(
+                f"{where}: free_thresh={thresholds['free_thresh']} > occupied_thresh="
+                f"{thresholds['occupied_thresh']}: expected free_thresh <= occupied_thresh"
+            )
+        mode = meta.get("mode", "trinary")
+        if mode not in ("trinary", "scale"):
+            raise ValueError(f"{where}: mode={mode!r}: expected 'trinary' or 'scale'")
+        image = meta["image"]
+        if not isinstance(image, str) or not image:
+            raise ValueError(f"{where}: image={image!r}: expected a file name")
+        image_path = path.parent / image
+        if not image_path.is_file():
+            raise ValueError(f"{where}: image file {str(image_path)!r} (field 'image') not found")
+
+        pixels, maxval = _read_pgm(image_path)
+        lightness = pixels / maxval
+        occupancy = lightness if negate else 1.0 - lightness
+        occupied = occupancy > thresholds["occupied_thresh"]
+        return cls(occupied[::-1], resolution, origin[:2])
+
+    def to_yaml(self, path, image_name=None) -> None:
+        """Write a ROS ``map_server`` YAML file and a binary PGM next to it.
+
+        Occupied cells are written black (0), free cells 254; ``negate`` 0, ``occupied_thresh``
+        0.65, ``free_thresh`` 0.196. Both files are replaced atomically.
+
+        Parameters
+        ----------
+        path : str or Path
+            YAML file to write.
+        image_name : str, optional
+            Image file name, in the YAML's folder; default: the YAML's stem + ".pgm".
+        """
+        path = Path(path)
+        if image_name is None:
+            image_name = path.stem + ".pgm"
+        if not isinstance(image_name, str) or not image_name or Path(image_name).name != image_name:
+            raise ValueError(f"image_name={image_name!r}: expected a plain file name")
+        ny, nx = self.shape
+        raster = np.where(self._occupied[::-1], 0, 254).astype(np.uint8)
+        _atomic_write(path.parent / image_name, f"P5\n{nx} {ny}\n255\n".encode() + raster.tobytes())
+        meta = {
+            "image": image_name,
+            "resolution": self._resolution,
+            "origin": [float(self._origin[0]), float(self._origin[1]), 0.0],
+            "negate": 0,
+            "occupied_thresh": 0.65,
+            "free_thresh": 0.196,
+            "mode": "trinary",
+        }
+        _atomic_write(path, yaml.safe_dump(meta, sort_keys=False).encode())
+
+
+# ---------------------------------------------------------------------------------------------
+# navigation function
+
+
+class NavigationFunction:
+    """Shortest free-space path length to a goal, interpolated. Built once per (grid, goal, inflation).
+
+    Parameters
+    ----------
+    goal : array_like, shape (2,)
+        Goal position (m).
+    grid : OccupancyGrid, optional
+        Static map. Without one the navigation function is the Euclidean distance to the goal.
+    inflation_radius : float
+        Obstacles grow by this much (m), e.g. the robot's radius; >= 0.
+    margin : float
+        The working grid is the map extended to hold the goal plus this much (m) around it; >= 0.
+
+    Attributes
+    ----------
+    goal : ndarray, shape (2,)
+    values : ndarray, shape (ny, nx), or None
+        Path length (m) at working-grid cell centres; None without a grid.
+    working_grid : OccupancyGrid or None
+        The extended (not inflated) grid ``values`` lives on.
+
+    Notes
+    -----
+    8-connected Dijkstra over cells whose signed distance exceeds ``inflation_radius``, with edges
+    ``resolution`` and ``resolution * sqrt(2)`` and no diagonal past a blocked cell. The seed is
+    the goal's cell (or, when it is blocked, the nearest free cells), valued at its Euclidean
+    distance to the goal. Unreached cells (inflated or enclosed) take the value of the nearest
+    reached cell plus the Euclidean distance to it, so the function is finite everywhere and
+    grows into obstacles. With no free cell at all it falls back to Euclidean distance.
+    """
+
+    def __init__(self, goal, grid=None, inflation_radius=0.0, margin=2.0):
+        self.goal = _readonly(_finite_vector("goal", goal, 2))
+        self.inflation_radius = _positive("inflation_radius", inflation_radius, allow_zero=True)
+        margin = _positive("margin", margin, allow_zero=True)
+        if grid is not None and not isinstance(grid, OccupancyGrid):
+            raise ValueError(f"grid={grid!r}: expected an OccupancyGrid or None")
+        self.values = None
+        self.working_grid = None
+        if grid is not None:
+            self.working_grid = self._extend(grid, margin)
+            self.values = _readonly(self._solve())
+
+    def _extend(self, grid, margin):
+        res = grid.resolution
+        xmin, ymin, xmax, ymax = grid.bounds
+        gx, gy = self.goal
+
+        def cells(gap):
+            return max(0, math.ceil(gap / res - 1e-9))
+
+        left, right = cells(xmin - (gx - margin)), cells(gx + margin - xmax)
+        bottom, top = cells(ymin - (gy - margin)), cells(gy + margin - ymax)
+        occ = np.pad(grid.occupied, ((bottom, top), (left, right)), constant_values=False)
+        return OccupancyGrid(occ, res, grid.origin - res * np.array([left, bottom]))
+
+    def _solve(self):
+        work = self.working_grid
+        res = work.resolution
+        ny, nx = work.shape
+        free = work.signed_distance > self.inflation_radius
+        iy, ix = np.mgrid[0:ny, 0:nx]
+        centres = work.origin + res * (np.stack([ix, iy], axis=-1) + 0.5)
+        to_goal = np.hypot(*(centres - self.goal).transpose(2, 0, 1))
+        if not free.any():
+            return to_goal
+
+        index = np.arange(ny * nx).reshape(ny, nx)
+        rows, cols, weights = [], [], []
+
+        def connect(a, b, ok, length):
+            rows.append(a[ok])
+            cols.append(b[ok])
+            weights.append(np.full(int(ok.sum()), length))
+
+        # right, up, up-right, up-left; both directions added below
+        connect(index[:, :-1], index[:, 1:], free[:, :-1] & free[:, 1:], res)
+        connect(index[:-1, :], index[1:, :], free[:-1, :] & free[1:, :], res)
+        square = free[:-1, :-1] & free[:-1, 1:] & free[1:, :-1] & free[1:, 1:]
+        diag = res * math.sqrt(2.0)
+        connect(index[:-1, :-1], index[1:, 1:], square, diag)
+        connect(index[:-1, 1:], index[1:, :-1], square, diag)
+
+        # A virtual source (node ny*nx) feeds the seeds with their Euclidean distance to the goal;
+        # edges are offset by res so no weight is zero (a zero would read as "no edge").
+        gx = int(np.clip(math.floor((self.goal[0] - work.origin[0]) / res), 0, nx - 1))
+        gy = int(np.clip(math.floor((self.goal[1] - work.origin[1]) / res), 0, ny - 1))
+        if free[gy, gx]:
+            seeds = np.array([index[gy, gx]])
+        else:
+            candidates = np.where(free, to_goal, np.inf).ravel()
+            seeds = np.flatnonzero(candidates <= candidates.min() + 1e-9 * res)
+        source = ny * nx
+        a = np.concatenate(rows)
+        b = np.concatenate(cols)
+        w = np.concatenate(weights)
+        a_all = np.concatenate([a, b, np.full(seeds.size, source)])
+        b_all = np.concatenate([b, a, seeds])
+        w_all = np.concatenate([w, w, to_goal.ravel()[seeds] + res])
+        graph = coo_matrix((w_all, (a_all, b_all)), shape=(source + 1, source + 1)).tocsr()
+        dist = dijkstra(graph, directed=True, indices=source)[:-1].reshape(ny, nx) - res
+
+        reached = np.isfinite(dist)
+        if reached.all():
+            return dist
+        gap, (near_y, near_x) = ndimage.distance_transform_edt(~reached, return_indices=True)
+        return np.where(reached, dist, dist[near_y, near_x] + gap * res)
+
+    def value(self, points) -> np.ndarray:
+        """Navigation function (m) at world points.
+
+        Parameters
+        ----------
+        points : array_like, shape (..., 2)
+            World positions (m).
+
+        Returns
+        -------
+        ndarray, shape (...)
+            Bilinear interpolation of :attr:`values` (outside the working grid: the clamped value
+            plus the distance to the clamped point), or ``|p - goal|`` without a grid.
+        """
+        pts = _points("points", points)
+        if self.values is None:
+            return np.hypot(pts[..., 0] - self.goal[0], pts[..., 1] - self.goal[1])
+        work = self.working_grid
+        return _interpolate(self.values, work.resolution, work.origin, pts)
+
+    def gradient(self, points) -> np.ndarray:
+        """Gradient (dimensionless, m/m) of :meth:`value` at world points.
+
+        Parameters
+        ----------
+        points : array_like, shape (..., 2)
+            World positions (m).
+
+        Returns
+        -------
+        ndarray, shape (..., 2)
+            Central differences of :meth:`value` with step ``resolution``; without a grid the exact
+            ``(p - goal) / |p - goal|`` (0 at the goal).
+        """
+        pts = _points("points", points)
+        if self.values is None:
+            delta = pts - self.goal
+            norm = np.linalg.norm(delta, axis=-1, keepdims=True)
+            return np.divide(delta, norm, out=np.zeros_like(delta), where=norm > 0)
+        h = self.working_grid.resolution
+        dx = np.array([h, 0.0])
+        dy = np.array([0.0, h])
+        gx = (self.value(pts + dx) - self.value(pts - dx)) / (2 * h)
+        gy = (self.value(pts + dy) - self.value(pts - dy)) / (2 * h)
+        return np.stack([gx, gy], axis=-1)
+
+
+# ---------------------------------------------------------------------------------------------
+# dynamic obstacles
+
+
+_KINDS = ("pedestrian", "robot")
+
+
+@dataclass(frozen=True, eq=False)
+class DynamicObstacle:
+    """One moving object: a pedestrian (one circle) or another robot (its footprint circles).
+
+    It moves at constant velocity. Equality and hashing are by identity (the fields are arrays).
+
+    Attributes
+    ----------
+    centers : ndarray, shape (m, 2)
+        World positions (m) of the object's circles at time 0, m >= 1.
+    radii : ndarray, shape (m,)
+        Circle radii (m), > 0.
+    velocity : ndarray, shape (2,)
+        Velocity (m/s), world frame.
+    kind : str
+        "pedestrian" or "robot".
+    """
+
+    centers: np.ndarray
+    radii: np.ndarray
+    velocity: np.ndarray
+    kind: str = "pedestrian"
+
+    def __post_init__(self):
+        centers = np.array(self.centers, dtype=float)
+        if centers.ndim != 2 or centers.shape[0] < 1 or centers.shape[1] != 2:
+            raise ValueError(f"centers has shape {centers.shape}: expected (m, 2) with m >= 1")
+        if not np.all(np.isfinite(centers)):
+            raise ValueError(f"centers={centers.tolist()}: expected finite positions (m)")
+        radii = np.array(self.radii, dtype=float)
+        if radii.shape != (centers.shape[0],):
+            raise ValueError(f"radii has shape {radii.shape}: expected ({centers.shape[0]},)")
+        if not np.all(np.isfinite(radii) & (radii > 0)):
+            raise ValueError(f"radii={radii.tolist()}: expected finite radii > 0 (m)")
+        velocity = _finite_vector("velocity", self.velocity, 2)
+        if self.kind not in _KINDS:
+            raise ValueError(f"kind={self.kind!r}: expected one of {_KINDS}")
+        object.__setattr__(self, "centers", _readonly(centers))
+        object.__setattr__(self, "radii", _readonly(radii))
+        object.__setattr__(self, "velocity", _readonly(velocity))
+
+    @classmethod
+    def pedestrian(cls, position, velocity, radius=0.3) -> DynamicObstacle:
+        """A pedestrian: one circle of ``radius`` (m) at ``position`` (2,) (m), ``velocity`` (2,) (m/s)."""
+        return cls(np.reshape(np.asarray(position, dtype=float), (1, -1)), [radius], velocity)
+
+    @classmethod
+    def robot(cls, pose, velocity, footprint) -> DynamicObstacle:
+        """Another robot at ``pose`` (x, y, phi) (m, m, rad) moving at ``velocity`` (2,) (m/s, world).
+
+        ``footprint`` is a sequence of body-frame circles ``(cx, cy, radius)`` (m), shape (m, 3).
+        """
+        x, y, phi = _finite_vector("pose", pose, 3)
+        circles = np.array(footprint, dtype=float)
+        if circles.ndim != 2 or circles.shape[0] < 1 or circles.shape[1] != 3:
+            raise ValueError(
+                f"footprint has shape {circles.shape}: expected (m, 3) rows (cx, cy, radius)"
+            )
+        c, s = math.cos(phi), math.sin(phi)
+        body = circles[:, :2]
+        world = np.stack([x + c * body[:, 0] - s * body[:, 1], y + s * body[:, 0] + c * body[:, 1]], 1)
+        return cls(world, circles[:, 2], velocity, kind="robot")
+
+    def predict(self, times) -> np.ndarray:
+        """Circle centres (m) at ``times`` (T,) (s): shape (T, m, 2), constant velocity."""
+        t = np.asarray(times, dtype=float)
+        return self.centers + t[..., None, None] * self.velocity
+
+
+# ---------------------------------------------------------------------------------------------
+# world
+
+
+class World:
+    """What a plan sees: an optional static grid and dynamic obstacles at the current time.
+
+    Parameters
+    ----------
+    grid : OccupancyGrid, optional
+    obstacles : iterable of DynamicObstacle
+    """
+
+    def __init__(self, grid=None, obstacles=()):
+        if grid is not None and not isinstance(grid, OccupancyGrid):
+            raise ValueError(f"grid={grid!r}: expected an OccupancyGrid or None")
+        obstacles = tuple(obstacles)
+        for i, obstacle in enumerate(obstacles):
+            if not isinstance(obstacle, DynamicObstacle):
+                raise ValueError(f"obstacles[{i}]={obstacle!r}: expected a DynamicObstacle")
+        self.grid = grid
+        self.obstacles = obstacles
+        self._navigation_cache = OrderedDict()
+        self._stacked = None
+
+    def with_obstacles(self, obstacles) -> World:
+        """The same grid and navigation-function cache with new dynamic obstacles."""
+        other = World(self.grid, obstacles)
+        other._navigation_cache = self._navigation_cache
+        return other
+
+    def navigation(self, goal, inflation_radius) -> NavigationFunction:
+        """Navigation function to ``goal`` (2,) (m) with obstacles inflated by ``inflation_radius`` (m).
+
+        Cached per (goal rounded to 1e-9 m, inflation radius), shared with :meth:`with_obstacles`
+        copies; the least recently used of more than 16 entries is dropped.
+        """
+        goal = _finite_vector("goal", goal, 2)
+        inflation_radius = _positive("inflation_radius", inflation_radius, allow_zero=True)
+        key = (*np.round(goal, 9).tolist(), inflation_radius)
+        cache = self._navigation_cache
+        if key in cache:
+            cache.move_to_end(key)
+            return cache[key]
+        nav = NavigationFunction(goal, self.grid, inflation_radius)
+        cache[key] = nav
+        while len(cache) > _NAV_CACHE_SIZE:
+            cache.popitem(last=False)
+        return nav
+
+    def static_distance(self, points) -> np.ndarray:
+        """Signed distance (m) to the grid at ``points`` (..., 2) -> (...); ``FAR`` without a grid."""
+        if self.grid is not None:
+            return self.grid.distance(points)
+        return np.full(_points("points", points).shape[:-1], FAR)
+
+    def static_ray_distance(self, origins, headings, clearance, max_range) -> np.ndarray:
+        """:meth:`OccupancyGrid.ray_distance`, or ``inf`` everywhere (shape (...)) without a grid."""
+        if self.grid is not None:
+            return self.grid.ray_distance(origins, headings, clearance, max_range)
+        shape = np.broadcast_shapes(
+            _points("origins", origins).shape[:-1], np.shape(headings), np.shape(clearance)
+        )
+        return np.full(shape, np.inf)
+
+    def stacked_obstacles(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """All dynamic-obstacle circles, flattened (K circles; K may be 0). Read-only, cached.
+
+        Returns
+        -------
+        centers : ndarray, shape (K, 2)
+            Positions (m) at the current time.
+        radii : ndarray, shape (K,)
+            Radii (m).
+        velocities : ndarray, shape (K, 2)
+            Velocity (m/s) of each circle's object.
+        owner : ndarray of int, shape (K,)
+            Index into :attr:`obstacles` of each circle's object.
+        """
+        if self._stacked is None:
+            obs = self.obstacles
+            counts = [len(o.radii) for o in obs]
+            centers = np.concatenate([o.centers for o in obs]) if obs else np.zeros((0, 2))
+            radii = np.concatenate([o.radii for o in obs]) if obs else np.zeros(0)
+            velocities = np.repeat(np.array([o.velocity for o in obs]).reshape(-1, 2), counts, 0)
+            owner = np.repeat(np.arange(len(obs), dtype=np.intp), counts)
+            self._stacked = tuple(_readonly(a) for a in (centers, radii, velocities, owner))
+        return self._stacked
