@@ -222,11 +222,11 @@ class SmoothingConfig:
         _validate_fields(self, {name.name: dict(low=0.0) for name in dataclasses.fields(self)})
 
     @classmethod
-    def exact(cls) -> "SmoothingConfig":
+    def exact(cls) -> SmoothingConfig:
         """All temperatures 0: the exact (non-smooth) forms."""
         return cls(**{f.name: 0.0 for f in dataclasses.fields(cls)})
 
-    def scaled(self, factor: float) -> "SmoothingConfig":
+    def scaled(self, factor: float) -> SmoothingConfig:
         """Every temperature times ``factor`` (for convergence studies)."""
         return dataclasses.replace(
             self, **{f.name: getattr(self, f.name) * factor for f in dataclasses.fields(self)}
@@ -284,17 +284,17 @@ class PlannerConfig:
                 _fail("PlannerConfig", name, getattr(self, name), "True or False")
 
     @classmethod
-    def mpepc(cls, **changes) -> "PlannerConfig":
+    def mpepc(cls, **changes) -> PlannerConfig:
         """MPEPC (IROS 2012): distance-only collision probability, no terminal cost."""
         return cls(anticipatory_pc=False, terminal_cost=False, **changes)
 
     @classmethod
-    def ds_mpepc(cls, **changes) -> "PlannerConfig":
+    def ds_mpepc(cls, **changes) -> PlannerConfig:
         """DS-MPEPC (the paper): both switches on."""
         return cls(anticipatory_pc=True, terminal_cost=True, **changes)
 
     @classmethod
-    def variant(cls, name: str, **changes) -> "PlannerConfig":
+    def variant(cls, name: str, **changes) -> PlannerConfig:
         """One of ``mpepc``, ``ds-mpepc``, ``pc-only``, ``terminal-only``."""
         switches = VARIANTS.get(name)
         if switches is None:
@@ -359,3 +359,68 @@ class RobotState:
         import numpy as np
 
         return np.array([self.x, self.y, self.phi, self.v, self.omega], dtype=float)
+
+
+SOLVER_METHODS = ("ipopt", "sqpmethod", "fatrop", "sampling")
+
+
+@dataclass(frozen=True)
+class SolverConfig:
+    """How a plan is searched for: the NLP plugin and its options, or the sampling planner.
+
+    ``SolverConfig()`` is IPOPT (default), ``SolverConfig.fast()`` the fast NLP configuration,
+    ``SolverConfig.sampling()`` the batched exact-cost sampler alone.
+    """
+
+    method: str = "ipopt"
+    """``ipopt``, ``sqpmethod``, ``fatrop`` (CasADi ``nlpsol`` plugins) or ``sampling``."""
+    max_iter: int = 40
+    """Iteration limit per start."""
+    tol: float = 1e-5
+    """Convergence tolerance passed to the plugin."""
+    options: tuple = ()
+    """Extra ``(key, value)`` pairs for ``casadi.nlpsol`` (plugin options as ``"ipopt.key"``)."""
+    n_spread: int = 4
+    """Starts spread over the z box in addition to the structured ones."""
+    n_samples: int = 4096
+    """Samples of z for the sampling planner (low-discrepancy)."""
+    seed: int = 0
+    """Seed of the low-discrepancy sequence and of the spread starts."""
+    jit: bool = False
+    """Compile the NLP's functions to C (cached on disk by configuration)."""
+
+    def __post_init__(self):
+        if self.method not in SOLVER_METHODS:
+            _fail("SolverConfig", "method", self.method, f"one of {', '.join(SOLVER_METHODS)}")
+        for name, low in (("max_iter", 1), ("n_spread", 0), ("n_samples", 1), ("seed", 0)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                _fail("SolverConfig", name, value, f"an integer >= {low}")
+        _validate_fields(self, {"tol": dict(low=0.0, low_open=True)})
+        try:
+            options = tuple((str(k), v) for k, v in
+                            (self.options.items() if isinstance(self.options, dict)
+                             else self.options))
+        except (TypeError, ValueError):
+            _fail("SolverConfig", "options", self.options, "a dict or sequence of (key, value)")
+        object.__setattr__(self, "options", options)
+        if not isinstance(self.jit, bool):
+            _fail("SolverConfig", "jit", self.jit, "True or False")
+
+    @classmethod
+    def fast(cls, **changes) -> SolverConfig:
+        """SQP with the ``qrqp`` QP solver: fewer, cheaper iterations than IPOPT on 4 variables."""
+        return cls(method="sqpmethod", **changes)
+
+    @classmethod
+    def sampling(cls, **changes) -> SolverConfig:
+        """The batched exact-cost sampling planner alone."""
+        return cls(method="sampling", **changes)
+
+    @classmethod
+    def named(cls, name: str) -> SolverConfig:
+        """``nlp`` (IPOPT), ``fast`` or ``sampling``, as on the command line."""
+        makers = {"nlp": cls, "fast": cls.fast, "sampling": cls.sampling}
+        if name not in makers:
+            raise ValueError(f"solver = {name!r}: must be one of {', '.join(makers)}")
+        return makers[name]()

@@ -141,7 +141,7 @@ class Trajectory:
     def __len__(self):
         return 1 if self.z.ndim == 1 else self.z.shape[0]
 
-    def __getitem__(self, index) -> "Trajectory":
+    def __getitem__(self, index) -> Trajectory:
         """The trajectories at ``index`` of a batch."""
         return Trajectory(self.z[index], self.poses[index], self.v[index], self.omega[index],
                           self.target[index])

@@ -1,0 +1,349 @@
+"""The MPEPC / DS-MPEPC cost terms (METHOD.md sections 4-5), exact and smooth forms side by side.
+
+Two layers. The *geometry* of a trajectory (distances, inverse times to collision and to goal,
+navigation-function values) is measured exactly here from the world (signed distance field,
+ray marching, disk closed forms) and smoothly by the NLP graph. The *assembly* of the cost
+from that geometry (collision probabilities, survivability, the five terms) is written once
+against an ops backend and serves both.
+
+Object axis: object 0 is the static map when the world has one (all static structure is one
+object, IROS 2012), then one object per dynamic obstacle. Steps: poses ``k = 0..N``; the speed
+at pose ``k`` is the command held from it (``v[min(k, N-1)]``), the start pose included so that
+a robot that starts in collision has survivability 0 at every step (Lemma 2).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config import PlannerConfig
+from .control_law import EXACT, Trajectory
+from .smooth import NUMPY, relu, sabs, smax
+
+TERM_NAMES = ("progress", "action", "collision", "heading", "terminal")
+"""The per-term breakdown, in the order of METHOD.md section 5."""
+
+_SIGNIFICANT_BELL = 6.0
+"""Beyond this many sigmas exp(-d^2/sigma^2) < 3e-16: TTC is not needed there."""
+
+
+# --- shared geometric formulas ----------------------------------------------------------------
+
+
+def footprint_points(poses, footprint):
+    """World positions of the footprint circles, ``(..., C, 2)``, for poses ``(..., 3)``."""
+    circles = np.asarray(footprint, dtype=float)
+    cos, sin = np.cos(poses[..., 2:3]), np.sin(poses[..., 2:3])
+    x = poses[..., 0:1] + cos * circles[:, 0] - sin * circles[:, 1]
+    y = poses[..., 1:2] + sin * circles[:, 0] + cos * circles[:, 1]
+    return np.stack([x, y], axis=-1)
+
+
+def disk_inverse_ttc(px, py, wx, wy, radius, smoothing=EXACT, ops=NUMPY):
+    """Inverse time to collision of two disks moving at constant velocity, 1/s.
+
+    ``p`` is the position of one centre relative to the other, ``w`` the relative velocity
+    (same order), ``radius`` the sum of the radii. Exactly: the smallest non-negative root t of
+    ``|p + w t| = R`` gives ``1/t = (-b + sqrt(b^2 - a c)) / c`` with ``a = |w|^2``,
+    ``b = p.w``, ``c = |p|^2 - R^2``; ``inf`` when overlapping (c <= 0), 0 when receding or
+    missing. Smooth: the two gates (approaching; closest approach inside R) become sigmoids with
+    the distance temperature, in m/s and m.
+    """
+    a = wx * wx + wy * wy
+    b = px * wx + py * wy
+    c = px * px + py * py - radius * radius
+    disc = b * b - a * c
+    num = relu(-b, 0.0, ops) + ops.sqrt(relu(disc, 0.0, ops))
+    if smoothing.distance == 0:
+        hit = ops.where(b < 0, 1.0, 0.0) * ops.where(disc >= 0, 1.0, 0.0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = hit * num / ops.fmax(c, 1e-300)
+        return ops.where(c <= 0, np.inf, inv)
+    tau = smoothing.distance
+    dist = ops.sqrt(px * px + py * py + tau * tau)
+    approach = -b / dist                                    # closing speed, m/s
+    miss = ops.sqrt(relu(px * px + py * py - b * b / (a + tau * tau), 0.0, ops))  # m
+    gate = _sigmoid(approach / tau, ops) * _sigmoid((radius - miss) / tau, ops)
+    return gate * num / smax(c, tau * radius, tau * radius, ops)
+
+
+def _sigmoid(x, ops):
+    return 1.0 / (1.0 + ops.exp(-x))
+
+
+def inverse_ttg(poses_terminal, v_terminal, goal, ops=NUMPY, smoothing=EXACT):
+    """Inverse expected time to goal at the horizon's end, 1/s (METHOD.md section 4).
+
+    Distance to the goal over the component of the terminal velocity along the goal
+    direction: ``1/TTG = max(v u.(g - p), 0) / |g - p|^2``; 0 when that component is <= 0.
+    """
+    dx, dy = goal[0] - poses_terminal[0], goal[1] - poses_terminal[1]
+    along = v_terminal * (ops.cos(poses_terminal[2]) * dx + ops.sin(poses_terminal[2]) * dy)
+    return relu(along, smoothing.inverse_time, ops) / (dx * dx + dy * dy + 1e-12)
+
+
+def heading_error(phi, descent_x, descent_y, ops=NUMPY, smoothing=EXACT):
+    """Angle between heading ``phi`` and the NF descent direction, rad, in [0, pi]."""
+    cos_phi, sin_phi = ops.cos(phi), ops.sin(phi)
+    dot = cos_phi * descent_x + sin_phi * descent_y
+    cross = cos_phi * descent_y - sin_phi * descent_x
+    return ops.atan2(sabs(cross, smoothing.angle, ops), dot)
+
+
+# --- assembly: one formula for the exact and the smooth cost ----------------------------------
+
+
+def collision_probability(distance, inv_ttc, sigma, config: PlannerConfig, smoothing=EXACT,
+                          ops=NUMPY):
+    """Collision probability per pose and object.
+
+    MPEPC: ``exp(-d^2 / sigma^2)`` with ``d <= 0`` giving 1. DS-MPEPC multiplies by the
+    anticipatory factor ``1 - a exp(-(1/TTC)^2 / s_ttc^2)``.
+    """
+    d = relu(distance, smoothing.distance, ops)
+    pc = ops.exp(-(d * d) / (sigma * sigma))
+    if config.anticipatory_pc:
+        # The paper (eq. 4) prints exp(+(1/TTC)^2 / s^2). With a = 0.7 and s = 0.5 that factor
+        # is negative for every TTC below 3.35 s, so it cannot be meant: Lemmas 1 and 2 need a
+        # factor that is 1 at TTC = 0 and 1 - a at TTC = inf, which is this form (METHOD.md 5).
+        s = config.cost.s_ttc
+        pc = pc * (1.0 - config.cost.a * ops.exp(-(inv_ttc * inv_ttc) / (s * s)))
+    return pc
+
+
+def assemble(distance, inv_ttc, sigma, nf, v, omega, heading_err, inv_ttg, inv_ttc_terminal,
+             config: PlannerConfig, smoothing=EXACT, ops=NUMPY):
+    """The cost and its terms from a trajectory's geometry.
+
+    Shapes for numpy (one trajectory in CasADi drops the leading ``n``): ``distance``,
+    ``inv_ttc``: ``(n, N+1, M)``; ``sigma``: ``(M,)`` (numpy) or ``1 x M``; ``nf``:
+    ``(n, N+1, 1)``; ``v``, ``omega``: ``(n, N, 1)``; ``heading_err``, ``inv_ttg``,
+    ``inv_ttc_terminal``: ``(n, 1, 1)``.
+
+    Returns
+    -------
+    total, terms, survivability
+        ``total`` ``(n, 1, 1)``, ``terms`` a dict over :data:`TERM_NAMES`, ``survivability``
+        ``(n, N+1, 1)``.
+    """
+    c = config.cost
+    pc = collision_probability(distance, inv_ttc, sigma, config, smoothing, ops)
+    survival = ops.cumprod_steps(ops.prod_objects(1.0 - pc))
+    after_start = ops.steps(survival, 1, None)
+    final = ops.steps(survival, -1, None)
+    progress = ops.sum_steps(
+        after_start * (ops.steps(nf, 1, None) - ops.steps(nf, None, -1)))
+    action = ops.sum_steps((c.c_v * v * v + c.c_w * omega * omega) * config.horizon.dt)
+    collision = ops.sum_steps((1.0 - after_start) * c.c_collision)
+    # Deviation from METHOD.md: the heading heuristic is weighted by the horizon survivability
+    # like progress is; unweighted, a robot in collision could gain by turning, breaking Lemma 3.
+    heading = c.c_heading * heading_err * final
+    terms = {"progress": progress, "action": action, "collision": collision,
+             "heading": heading}
+    if config.terminal_cost:
+        c_ttg = ops.exp(-(inv_ttg * inv_ttg) / (c.s_ttg * c.s_ttg))
+        c_ttc = ops.exp(-(inv_ttc_terminal * inv_ttc_terminal) / (c.s_ttc * c.s_ttc))
+        terms["terminal"] = -final * c_ttg * c_ttc
+    else:
+        terms["terminal"] = 0.0 * final
+    total = terms["progress"] + terms["action"] + terms["collision"] + terms["heading"] \
+        + terms["terminal"]
+    return total, terms, survival
+
+
+# --- exact geometry from a world --------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """Exact geometry of a batch of trajectories (see :func:`assemble` for the shapes)."""
+
+    distance: np.ndarray
+    inv_ttc: np.ndarray
+    sigma: np.ndarray
+    nf: np.ndarray
+    heading_error: np.ndarray
+    inv_ttg: np.ndarray
+    inv_ttc_terminal: np.ndarray
+
+
+@dataclass(frozen=True)
+class CostBreakdown:
+    """Exact cost of ``n`` trajectories.
+
+    Attributes
+    ----------
+    total : ndarray, (n,)
+    terms : dict of str to ndarray (n,)
+        ``progress``, ``action``, ``collision``, ``heading``, ``terminal``.
+    survivability : ndarray, (n, N+1)
+        ``ps_k`` at each pose, start included.
+    min_distance : ndarray, (n,)
+        Smallest distance to any object over the horizon, m (inf with nothing around).
+    ttg, ttc_terminal : ndarray, (n,)
+        Expected time to goal and terminal time to collision, s (inf for never).
+    """
+
+    total: np.ndarray
+    terms: dict
+    survivability: np.ndarray
+    min_distance: np.ndarray
+    ttg: np.ndarray
+    ttc_terminal: np.ndarray
+
+    def __getitem__(self, index) -> CostBreakdown:
+        return CostBreakdown(self.total[index], {k: t[index] for k, t in self.terms.items()},
+                             self.survivability[index], self.min_distance[index],
+                             self.ttg[index], self.ttc_terminal[index])
+
+
+def _speeds_at_poses(traj_v):
+    """Speed held from each pose k = 0..N: v[min(k, N-1)], shape (n, N+1)."""
+    return np.concatenate([traj_v, traj_v[:, -1:]], axis=1)
+
+
+def _inverse(speed, distance_along):
+    """speed / distance with 0 for a miss (inf distance) and inf for contact (0 distance)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = np.where(distance_along <= 0.0, np.inf, speed / distance_along)
+    return np.where(np.isinf(distance_along) | (speed <= 0.0) & (distance_along > 0.0), 0.0, inv)
+
+
+def _static_geometry(poses, speeds, world, config, points):
+    """Distance to the map and 1/TTC along the heading, (n, N+1) each."""
+    radii = np.array([r for _, _, r in config.robot.footprint])
+    distance = np.min(world.static_distance(points) - radii, axis=-1)
+    inv_ttc = np.zeros_like(distance)
+    if config.anticipatory_pc:
+        near = distance < _SIGNIFICANT_BELL * config.cost.sigma_static
+        if np.any(near):
+            inv_ttc[near] = _static_inverse_ttc(points[near], poses[near][:, 2],
+                                                speeds[near], world, config)
+    return distance, inv_ttc
+
+
+def _static_inverse_ttc(points, headings, speeds, world, config):
+    """1/TTC against the map for poses (P,) whose circles sit at points (P, C, 2)."""
+    radii = np.array([r for _, _, r in config.robot.footprint])
+    headings = np.broadcast_to(headings[:, None], points.shape[:-1])
+    along = world.static_ray_distance(points, headings, radii, config.cost.ttc_range)
+    return np.max(_inverse(speeds[:, None], along), axis=-1)
+
+
+def _dynamic_geometry(poses, speeds, world, config, points, times):
+    """Distance and 1/TTC per dynamic obstacle, (n, N+1, M_dyn) each."""
+    centers, radii, velocities, owner = world.stacked_obstacles()
+    robot_radii = np.array([r for _, _, r in config.robot.footprint])
+    predicted = centers[None, :, :] + velocities[None, :, :] * times[:, None, None]  # (N+1,K,2)
+    rel = points[..., :, None, :] - predicted[None, :, None, :, :]           # (n,N+1,C,K,2)
+    gap = np.linalg.norm(rel, axis=-1) - robot_radii[:, None] - radii        # (n,N+1,C,K)
+    starts = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
+    distance = np.minimum.reduceat(gap.min(axis=-2), starts, axis=-1)
+    inv_ttc = np.zeros_like(distance)
+    if config.anticipatory_pc:
+        heading = poses[..., 2]
+        robot_velocity = np.stack([speeds * np.cos(heading), speeds * np.sin(heading)], -1)
+        w = robot_velocity[..., None, None, :] - velocities                  # (n,N+1,1,K,2)
+        radius = robot_radii[:, None] + radii
+        inv = disk_inverse_ttc(rel[..., 0], rel[..., 1], w[..., 0], w[..., 1], radius)
+        inv_ttc = np.maximum.reduceat(inv.max(axis=-2), starts, axis=-1)
+    return distance, inv_ttc
+
+
+def _terminal_inverse_ttc(pose, world, config, times_end):
+    """1/TTC at the horizon's end moving along the terminal heading at v_limit, (n,)."""
+    speed = np.full(pose.shape[0], config.robot.v_limit)
+    points = footprint_points(pose, config.robot.footprint)                  # (n,C,2)
+    inv = np.zeros(pose.shape[0])
+    if world.grid is not None:
+        inv = _static_inverse_ttc(points, pose[:, 2], speed, world, config)
+    if world.obstacles:
+        centers, radii, velocities, _ = world.stacked_obstacles()
+        predicted = centers + velocities * times_end
+        rel = points[:, :, None, :] - predicted                               # (n,C,K,2)
+        robot_velocity = speed[:, None] * np.stack([np.cos(pose[:, 2]), np.sin(pose[:, 2])], -1)
+        w = robot_velocity[:, None, None, :] - velocities
+        robot_radii = np.array([r for _, _, r in config.robot.footprint])
+        radius = robot_radii[:, None] + radii
+        dyn = disk_inverse_ttc(rel[..., 0], rel[..., 1], w[..., 0], w[..., 1], radius)
+        inv = np.maximum(inv, dyn.max(axis=(-1, -2)))
+    return inv
+
+
+def exact_geometry(trajectory: Trajectory, world, goal, config: PlannerConfig) -> Geometry:
+    """Measure a batch of trajectories exactly in ``world`` (SDF, ray marching, closed forms)."""
+    poses = trajectory.poses
+    if poses.ndim == 2:
+        raise ValueError("exact_geometry takes a batch: index trajectories with [None]")
+    n, n_poses = poses.shape[:2]
+    goal = np.asarray(goal, dtype=float)
+    speeds = _speeds_at_poses(trajectory.v)
+    points = footprint_points(poses, config.robot.footprint)                 # (n,N+1,C,2)
+    times = np.arange(n_poses) * config.horizon.dt
+    distances, inverses, sigmas = [], [], []
+    if world.grid is not None:
+        d, inv = _static_geometry(poses, speeds, world, config, points)
+        distances.append(d[..., None])
+        inverses.append(inv[..., None])
+        sigmas.append([config.cost.sigma_static])
+    if world.obstacles:
+        d, inv = _dynamic_geometry(poses, speeds, world, config, points, times)
+        distances.append(d)
+        inverses.append(inv)
+        sigmas.append([config.cost.sigma_dynamic] * d.shape[-1])
+    if distances:
+        distance = np.concatenate(distances, axis=-1)
+        inv_ttc = np.concatenate(inverses, axis=-1)
+        sigma = np.concatenate([np.asarray(s, dtype=float) for s in sigmas])
+    else:
+        distance = np.full((n, n_poses, 0), np.inf)
+        inv_ttc = np.zeros((n, n_poses, 0))
+        sigma = np.zeros(0)
+    nav = world.navigation(goal, config.robot.inflation_radius)
+    nf = nav.value(poses[..., :2])[..., None]
+    end = poses[:, -1]
+    descent = -nav.gradient(end[:, :2])
+    err = heading_error(end[:, 2], descent[:, 0], descent[:, 1])
+    inv_ttg = inverse_ttg((end[:, 0], end[:, 1], end[:, 2]), trajectory.v[:, -1], goal)
+    inv_term = (_terminal_inverse_ttc(end, world, config, times[-1])
+                if config.terminal_cost else np.zeros(n))
+    as3 = lambda a: a.reshape(n, 1, 1)
+    return Geometry(distance, inv_ttc, sigma, nf, as3(err), as3(inv_ttg), as3(inv_term))
+
+
+def evaluate(trajectory: Trajectory, world, goal, config: PlannerConfig) -> CostBreakdown:
+    """Exact MPEPC / DS-MPEPC cost of one trajectory or a batch.
+
+    Parameters
+    ----------
+    trajectory : Trajectory
+        From :func:`~dsmpepc_nlp.control_law.rollout`, batched or single.
+    world : World
+        Static map and dynamic obstacles at the plan's start time.
+    goal : array_like, (2,)
+        Goal position, m.
+    config : PlannerConfig
+
+    Returns
+    -------
+    CostBreakdown
+        Batched like ``trajectory``.
+    """
+    single = trajectory.poses.ndim == 2
+    batch = trajectory
+    if single:
+        batch = Trajectory(trajectory.z[None], trajectory.poses[None], trajectory.v[None],
+                           trajectory.omega[None], trajectory.target[None])
+    geo = exact_geometry(batch, world, goal, config)
+    total, terms, survival = assemble(
+        geo.distance, geo.inv_ttc, geo.sigma, geo.nf, batch.v[..., None], batch.omega[..., None],
+        geo.heading_error, geo.inv_ttg, geo.inv_ttc_terminal, config)
+    flat = lambda a: np.asarray(a, dtype=float).reshape(-1)
+    with np.errstate(divide="ignore"):
+        result = CostBreakdown(
+            flat(total), {k: flat(v) for k, v in terms.items()}, survival[..., 0],
+            geo.distance.min(axis=(1, 2)) if geo.distance.shape[-1] else np.full(len(batch), np.inf),
+            1.0 / flat(geo.inv_ttg), 1.0 / flat(geo.inv_ttc_terminal))
+    return result[0] if single else result

@@ -1,0 +1,242 @@
+"""``plan(state, world, goal) -> Plan``, whichever solver runs underneath, with its fallbacks."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .config import PlannerConfig, RobotState, SolverConfig
+from .control_law import Trajectory, rollout, z_from_target
+from .costs import TERM_NAMES, CostBreakdown
+from .sampling import Evaluation, SamplingPlanner, clip_to_bounds, evaluate_batch, structured_starts
+
+STATUSES = ("nlp", "sampling", "sampling-fallback", "docked", "stopped")
+"""Where a plan came from: the NLP, the sampler as chosen solver, the sampler after every NLP
+start failed, docking at a fixed goal, or the stop trajectory when nothing finite was found."""
+
+
+@dataclass(frozen=True)
+class StartRecord:
+    """One start of the multi-start search.
+
+    ``z0`` the start, ``z`` where the solver ended (clipped to the box), ``status`` the solver's
+    return status, ``nit`` iterations, ``time_s`` wall time, ``smooth_cost`` the NLP objective
+    at ``z`` and ``exact_cost`` the exact cost of ``z`` (the verdict).
+    """
+
+    name: str
+    z0: np.ndarray
+    z: np.ndarray
+    status: str
+    success: bool
+    nit: int
+    time_s: float
+    smooth_cost: float = math.nan
+    exact_cost: float = math.nan
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The outcome of one planning cycle. Field names follow ``scipy.optimize.OptimizeResult``.
+
+    Attributes
+    ----------
+    x : ndarray, (4,)
+        The chosen z = (r, theta, delta, v_max).
+    fun : float
+        Its exact cost.
+    success : bool
+        True when the chosen solver delivered the plan (no fallback to stopping or sampling).
+    message : str
+        What happened, in words.
+    nit : int
+        Iterations summed over the NLP starts (0 for sampling and docking).
+    trajectory : Trajectory
+        The exact rollout of ``x``.
+    control : tuple of float
+        ``(v, omega)`` for the first step, m/s and rad/s; always finite and within the limits.
+    cost : CostBreakdown
+        Exact cost of ``x`` with its per-term breakdown.
+    status : str
+        One of :data:`STATUSES`.
+    starts : tuple of StartRecord
+        Every NLP start, in order.
+    wall_time : float
+        Seconds spent in :meth:`Planner.plan`.
+    evaluated : Evaluation or None
+        The sampled z with their exact costs, when the sampler ran (for plots and cross-checks).
+    """
+
+    x: np.ndarray
+    fun: float
+    success: bool
+    message: str
+    nit: int
+    trajectory: Trajectory
+    control: tuple
+    cost: CostBreakdown
+    status: str
+    starts: tuple = ()
+    wall_time: float = 0.0
+    evaluated: Evaluation | None = field(default=None, repr=False)
+
+    @property
+    def z(self) -> np.ndarray:
+        """Alias of ``x``."""
+        return self.x
+
+    @property
+    def breakdown(self) -> dict:
+        """Per-term exact cost, ``{name: float}``."""
+        return {name: float(value) for name, value in self.cost.terms.items()}
+
+
+class Planner:
+    """Plans one cycle at a time and keeps the last target for MPEPC's warm start.
+
+    Parameters
+    ----------
+    config : PlannerConfig
+        The method (MPEPC, DS-MPEPC or an ablation) and its parameters.
+    solver : SolverConfig
+        IPOPT by default; ``SolverConfig.fast()`` or ``SolverConfig.sampling()``.
+
+    The NLP graph and solver are built here, once; :meth:`plan` only sets parameters.
+    """
+
+    def __init__(self, config: PlannerConfig | None = None, solver: SolverConfig | None = None):
+        self.config = PlannerConfig() if config is None else config
+        self.solver = SolverConfig() if solver is None else solver
+        self.sampler = SamplingPlanner(self.config, self.solver)
+        self.nlp = None
+        if self.solver.method != "sampling":
+            from .nlp import NlpSolver
+
+            self.nlp = NlpSolver(self.config, self.solver)
+        self._previous_target = None
+
+    def reset(self) -> None:
+        """Forget the warm start (a new episode)."""
+        self._previous_target = None
+
+    def plan(self, state: RobotState, world, goal, *, dock: bool = True,
+             sample: bool = False) -> Plan:
+        """Plan from ``state`` toward ``goal`` in ``world``.
+
+        Parameters
+        ----------
+        state : RobotState
+        world : World
+            Static map and the dynamic obstacles now.
+        goal : array_like, (2,)
+            Goal position, m.
+        dock : bool
+            Dock at a fixed goal within ``config.docking.radius`` (False for moving goals).
+        sample : bool
+            Also run the sampler when the NLP succeeds (for cross-checks and plots).
+        """
+        started = time.perf_counter()
+        goal = np.asarray(goal, dtype=float)
+        if goal.shape != (2,) or not np.all(np.isfinite(goal)):
+            raise ValueError(f"goal = {goal!r}: must be a finite (x, y) pair")
+        starts = structured_starts(state, goal, self.config, self._previous_target)
+        plan = None
+        if dock:
+            plan = self._dock(state, world, goal)
+        evaluated = None
+        if plan is None and self.nlp is not None:
+            records = self._verify(self.nlp.solve(state, world, goal, starts), state, world, goal)
+            if sample:
+                evaluated = self.sampler.search(state, world, goal, starts)
+            plan = self._choose_nlp(records, state, world, goal, evaluated)
+        if plan is None:
+            evaluated = evaluated or self.sampler.search(state, world, goal, starts)
+            fallback = self.nlp is not None
+            plan = self._from_evaluation(evaluated, state, fallback=fallback,
+                                         records=self._records)
+        plan = _replace(plan, wall_time=time.perf_counter() - started, evaluated=evaluated)
+        self._previous_target = (plan.trajectory.target, float(plan.x[3]))
+        return plan
+
+    # -- the pieces of plan() ---------------------------------------------------------------
+
+    _records: tuple = ()
+
+    def _dock(self, state, world, goal) -> Plan | None:
+        docking = self.config.docking
+        distance = math.hypot(goal[0] - state.x, goal[1] - state.y)
+        if distance > docking.radius or distance == 0.0:
+            return None
+        heading = math.atan2(goal[1] - state.y, goal[0] - state.x)
+        z = z_from_target((goal[0], goal[1], heading), self.config.robot.v_limit, state.pose)
+        z = clip_to_bounds(np.array(z, dtype=float), self.config)
+        ev = evaluate_batch(z, state, world, goal, self.config)
+        if not ev.costs.survivability[0, -1] > docking.min_survival:
+            return None
+        return self._plan_from(ev, 0, "docked", True, "docked at the goal", 0, ())
+
+    def _verify(self, records, state, world, goal) -> tuple:
+        """Exact cost of every start's result: the verdict on the NLP."""
+        finite = [r for r in records if np.all(np.isfinite(r.z))]
+        costs = {}
+        if finite:
+            ev = evaluate_batch(np.array([r.z for r in finite]), state, world, goal, self.config)
+            costs = {id(r): float(c) for r, c in zip(finite, ev.costs.total)}
+        self._records = tuple(_replace(r, exact_cost=costs.get(id(r), math.nan))
+                              for r in records)
+        return self._records
+
+    def _choose_nlp(self, records, state, world, goal, evaluated) -> Plan | None:
+        usable = [r for r in records if math.isfinite(r.exact_cost)]
+        if not any(r.success for r in usable):
+            return None
+        best = min(usable, key=lambda r: r.exact_cost)
+        ev = evaluate_batch(best.z, state, world, goal, self.config)
+        nit = sum(r.nit for r in records)
+        message = f"NLP: best of {len(records)} starts is '{best.name}' ({best.status})"
+        return self._plan_from(ev, 0, "nlp", True, message, nit, records)
+
+    def _from_evaluation(self, evaluated: Evaluation, state, *, fallback: bool, records) -> Plan:
+        index = evaluated.best()
+        if index is None:
+            return self._stop(state, records)
+        if fallback:
+            return self._plan_from(evaluated, index, "sampling-fallback", False,
+                                   "every NLP start failed; best sampled trajectory used",
+                                   sum(r.nit for r in records), records)
+        return self._plan_from(evaluated, index, "sampling", True,
+                               f"best of {len(evaluated.z)} sampled trajectories", 0, ())
+
+    def _stop(self, state, records) -> Plan:
+        """Nothing finite: the stop trajectory (v_max = 0), finite by construction."""
+        z = clip_to_bounds(np.array([1.0, 0.0, 0.0, 0.0]), self.config)
+        trajectory = rollout(z, state, self.config)
+        nan = np.full(1, math.nan)
+        survival = np.full((1, trajectory.poses.shape[0]), math.nan)
+        cost = CostBreakdown(nan, {name: nan for name in TERM_NAMES}, survival, nan, nan, nan)[0]
+        return Plan(z, math.nan, False, "no finite cost anywhere: stopping", 0, trajectory,
+                    _control(trajectory, self.config), cost, "stopped", tuple(records))
+
+    def _plan_from(self, ev: Evaluation, index, status, success, message, nit, records) -> Plan:
+        trajectory = ev.trajectories[index]
+        return Plan(ev.z[index], float(ev.costs.total[index]), success, message, nit,
+                    trajectory, _control(trajectory, self.config), ev.costs[index], status,
+                    tuple(records))
+
+
+def _control(trajectory: Trajectory, config: PlannerConfig) -> tuple:
+    """First command of a trajectory, forced finite and inside the limits."""
+    robot = config.robot
+    v, omega = float(trajectory.v[0]), float(trajectory.omega[0])
+    if not (math.isfinite(v) and math.isfinite(omega)):
+        return (0.0, 0.0)
+    return (min(max(v, 0.0), robot.v_limit),
+            min(max(omega, -robot.omega_limit), robot.omega_limit))
+
+
+def _replace(obj, **changes):
+    return dataclasses.replace(obj, **changes)

@@ -1,0 +1,107 @@
+"""Batched exact evaluation of many z and the sampling planner: the NLP's verifier and fallback."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.stats import qmc
+
+from .config import PlannerConfig, RobotState, SolverConfig
+from .control_law import Trajectory, rollout, wrap, z_from_target
+from .costs import CostBreakdown, evaluate
+
+SOFT_TURN = 0.6
+"""|delta| of the soft-turn starts, rad (our choice: about a third of the box)."""
+HARD_TURN = 1.5
+"""|delta| of the hard-turn starts, rad (our choice: near the box's edge)."""
+TURN_DISTANCE = 2.0
+"""Target distance r of the turn starts, m (our choice)."""
+
+
+def clip_to_bounds(z, config: PlannerConfig) -> np.ndarray:
+    """z clipped into the box of ``config``; works on (4,) and (n, 4)."""
+    return np.clip(np.asarray(z, dtype=float), config.z_lower, config.z_upper)
+
+
+def structured_starts(state: RobotState, goal, config: PlannerConfig,
+                      previous_target=None) -> dict:
+    """The named starts of METHOD.md section 6, each a z of shape (4,) inside the box.
+
+    ``warm`` (last plan's target re-expressed in the robot's new frame, when given), ``stop``,
+    ``goal`` (target on the goal, facing along the line of sight), soft and hard turns both ways.
+    """
+    v_limit = config.robot.v_limit
+    starts = {}
+    if previous_target is not None:
+        target, v_max = previous_target
+        z = np.array(z_from_target(target, v_max, state.pose), dtype=float)
+        if np.all(np.isfinite(z)):
+            starts["warm"] = z
+    dx, dy = goal[0] - state.x, goal[1] - state.y
+    distance = math.hypot(dx, dy)
+    los = math.atan2(dy, dx) if distance > 0 else state.phi
+    starts["stop"] = np.array([TURN_DISTANCE, 0.0, 0.0, 0.0])
+    starts["goal"] = np.array([distance, 0.0, float(wrap(state.phi - los)), v_limit])
+    for name, delta in (("soft-left", -SOFT_TURN), ("soft-right", SOFT_TURN),
+                        ("hard-left", -HARD_TURN), ("hard-right", HARD_TURN)):
+        # delta = phi - los: a negative delta puts the target to the robot's left.
+        starts[name] = np.array([TURN_DISTANCE, 0.0, delta, v_limit])
+    return {name: clip_to_bounds(z, config) for name, z in starts.items()}
+
+
+def box_samples(config: PlannerConfig, count: int, seed: int) -> np.ndarray:
+    """``count`` z spread over the box by a scrambled Sobol sequence, shape (count, 4).
+
+    The egocentric z needs no re-drawing per cycle: one set serves every plan.
+    """
+    if count == 0:
+        return np.zeros((0, 4))
+    sobol = qmc.Sobol(d=4, scramble=True, rng=np.random.default_rng(seed))
+    unit = sobol.random(count)
+    lower, upper = np.array(config.z_lower), np.array(config.z_upper)
+    return lower + unit * (upper - lower)
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """Exact rollouts and costs of a batch of z."""
+
+    z: np.ndarray
+    trajectories: Trajectory
+    costs: CostBreakdown
+
+    def best(self) -> int | None:
+        """Index of the lowest finite exact cost, or None when nothing is finite."""
+        total = np.where(np.isfinite(self.costs.total), self.costs.total, np.inf)
+        if not np.any(np.isfinite(total)):
+            return None
+        return int(np.argmin(total))
+
+
+def evaluate_batch(z, state: RobotState, world, goal, config: PlannerConfig) -> Evaluation:
+    """Roll out and cost every row of ``z`` (n, 4) exactly."""
+    z = np.atleast_2d(np.asarray(z, dtype=float))
+    trajectories = rollout(z, state, config)
+    return Evaluation(z, trajectories, evaluate(trajectories, world, goal, config))
+
+
+class SamplingPlanner:
+    """Exact cost over a fixed low-discrepancy set of z plus the structured starts.
+
+    Parameters
+    ----------
+    config : PlannerConfig
+    solver : SolverConfig
+        ``n_samples`` and ``seed`` are read; the sample set is drawn once, here.
+    """
+
+    def __init__(self, config: PlannerConfig, solver: SolverConfig = SolverConfig.sampling()):
+        self.config = config
+        self.samples = box_samples(config, solver.n_samples, solver.seed)
+
+    def search(self, state: RobotState, world, goal, starts: dict | None = None) -> Evaluation:
+        """Evaluate the sample set and ``starts`` (a dict of named z); see :class:`Evaluation`."""
+        extra = np.array(list(starts.values())) if starts else np.zeros((0, 4))
+        return evaluate_batch(np.vstack([extra, self.samples]), state, world, goal, self.config)
