@@ -18,7 +18,8 @@ def _finite(owner, name, value, *, low=-math.inf, high=math.inf, low_open=False,
     except (TypeError, ValueError):
         _fail(owner, name, value, "a real number")
     if math.isnan(number) or (math.isinf(number) and not allow_inf):
-        _fail(owner, name, value, "a finite number" if not allow_inf else "a number or inf, not NaN")
+        allowed = "a number or inf, not NaN" if allow_inf else "a finite number"
+        _fail(owner, name, value, allowed)
     too_low = number <= low if low_open else number < low
     if too_low or number > high:
         left = "(" if low_open else "["
@@ -43,7 +44,7 @@ class RobotConfig:
     accel_limit: float = 1.5
     """Largest change of v per second between steps, m/s^2; ``inf`` turns it off (our choice)."""
     alpha_limit: float = 3.0
-    """Largest change of omega per second between steps, rad/s^2; ``inf`` turns it off (our choice)."""
+    """Largest change of omega per second between steps, rad/s^2; ``inf``: off (our choice)."""
     footprint: tuple = ((0.0, 0.0, 0.3),)
     """Circles ``(cx, cy, radius)`` in the body frame, metres; one circle is a round robot."""
 
@@ -57,7 +58,8 @@ class RobotConfig:
         try:
             circles = tuple(tuple(float(c) for c in circle) for circle in self.footprint)
         except TypeError:
-            _fail("RobotConfig", "footprint", self.footprint, "a sequence of (cx, cy, radius) triples")
+            _fail("RobotConfig", "footprint", self.footprint,
+                  "a sequence of (cx, cy, radius) triples")
         if not circles or any(len(c) != 3 for c in circles):
             _fail("RobotConfig", "footprint", self.footprint,
                   "a non-empty sequence of (cx, cy, radius) triples")
@@ -132,7 +134,7 @@ class HorizonConfig:
 
 @dataclass(frozen=True)
 class BoundsConfig:
-    """Box on ``z = (r, theta, delta, v_max)`` (IROS 2012); v_max's upper bound is the robot's v_limit."""
+    """Box on ``z = (r, theta, delta, v_max)`` (IROS 2012); v_max is bounded by v_limit."""
 
     r_min: float = 0.05
     """Smallest target distance, m: a small positive floor keeps the law defined."""
@@ -240,7 +242,7 @@ class DockingConfig:
     radius: float = 2.0
     """Within this distance of a fixed goal the target pose is the goal itself, m (IROS 2012)."""
     min_survival: float = 0.9
-    """Docking only while the docking trajectory's horizon survivability stays above this (our choice)."""
+    """Dock only while the docking trajectory's horizon survivability is above this (our choice)."""
 
     def __post_init__(self):
         _validate_fields(self, {"radius": dict(low=0.0), "min_survival": dict(low=0.0, high=1.0)})

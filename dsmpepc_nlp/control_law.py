@@ -1,4 +1,4 @@
-"""The smooth pose-following control law and the horizon rollout, written once for numpy and CasADi."""
+"""The smooth pose-following control law and the horizon rollout, once for numpy and CasADi."""
 
 from __future__ import annotations
 

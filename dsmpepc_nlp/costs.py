@@ -70,7 +70,7 @@ def disk_inverse_ttc(px, py, wx, wy, radius, smoothing=EXACT, ops=NUMPY):
 
 
 def _sigmoid(x, ops):
-    return 1.0 / (1.0 + ops.exp(-x))
+    return 0.5 + 0.5 * ops.tanh(0.5 * x)
 
 
 def inverse_ttg(poses_terminal, v_terminal, goal, ops=NUMPY, smoothing=EXACT):
@@ -309,8 +309,11 @@ def exact_geometry(trajectory: Trajectory, world, goal, config: PlannerConfig) -
     inv_ttg = inverse_ttg((end[:, 0], end[:, 1], end[:, 2]), trajectory.v[:, -1], goal)
     inv_term = (_terminal_inverse_ttc(end, world, config, times[-1])
                 if config.terminal_cost else np.zeros(n))
-    as3 = lambda a: a.reshape(n, 1, 1)
-    return Geometry(distance, inv_ttc, sigma, nf, as3(err), as3(inv_ttg), as3(inv_term))
+    def per_trajectory(values):
+        return values.reshape(n, 1, 1)
+
+    return Geometry(distance, inv_ttc, sigma, nf, per_trajectory(err), per_trajectory(inv_ttg),
+                    per_trajectory(inv_term))
 
 
 def evaluate(trajectory: Trajectory, world, goal, config: PlannerConfig) -> CostBreakdown:
@@ -340,10 +343,13 @@ def evaluate(trajectory: Trajectory, world, goal, config: PlannerConfig) -> Cost
     total, terms, survival = assemble(
         geo.distance, geo.inv_ttc, geo.sigma, geo.nf, batch.v[..., None], batch.omega[..., None],
         geo.heading_error, geo.inv_ttg, geo.inv_ttc_terminal, config)
-    flat = lambda a: np.asarray(a, dtype=float).reshape(-1)
+    def flat(values):
+        return np.asarray(values, dtype=float).reshape(-1)
+
+    nearest = (geo.distance.min(axis=(1, 2)) if geo.distance.shape[-1]
+               else np.full(len(batch), np.inf))
     with np.errstate(divide="ignore"):
         result = CostBreakdown(
-            flat(total), {k: flat(v) for k, v in terms.items()}, survival[..., 0],
-            geo.distance.min(axis=(1, 2)) if geo.distance.shape[-1] else np.full(len(batch), np.inf),
+            flat(total), {k: flat(v) for k, v in terms.items()}, survival[..., 0], nearest,
             1.0 / flat(geo.inv_ttg), 1.0 / flat(geo.inv_ttc_terminal))
     return result[0] if single else result

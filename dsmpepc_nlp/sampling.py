@@ -97,7 +97,8 @@ class SamplingPlanner:
         ``n_samples`` and ``seed`` are read; the sample set is drawn once, here.
     """
 
-    def __init__(self, config: PlannerConfig, solver: SolverConfig = SolverConfig.sampling()):
+    def __init__(self, config: PlannerConfig, solver: SolverConfig | None = None):
+        solver = SolverConfig.sampling() if solver is None else solver
         self.config = config
         self.samples = box_samples(config, solver.n_samples, solver.seed)
 

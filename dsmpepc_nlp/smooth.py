@@ -26,6 +26,7 @@ class NumpyOps:
     atan2 = staticmethod(np.arctan2)
     sqrt = staticmethod(np.sqrt)
     exp = staticmethod(np.exp)
+    tanh = staticmethod(np.tanh)
     log1p = staticmethod(np.log1p)
     fabs = staticmethod(np.abs)
     fmin = staticmethod(np.minimum)
@@ -78,6 +79,7 @@ class CasadiOps:
     atan2 = staticmethod(ca.atan2)
     sqrt = staticmethod(ca.sqrt)
     exp = staticmethod(ca.exp)
+    tanh = staticmethod(ca.tanh)
     log1p = staticmethod(ca.log1p)
     fabs = staticmethod(ca.fabs)
     fmin = staticmethod(ca.fmin)
@@ -136,7 +138,7 @@ CASADI = CasadiOps()
 
 
 def relu(x, temperature, ops):
-    """``max(x, 0)``; smooth: ``t * log(1 + exp(x / t))`` (softplus), above it by at most t*log 2."""
+    """``max(x, 0)``; smooth: ``t log(1 + exp(x / t))`` (softplus), above it by at most t log 2."""
     if temperature == 0:
         return ops.fmax(x, 0.0)
     # max(x, 0) + t log(1 + exp(-|x|/t)) is softplus written without overflow.
@@ -145,11 +147,15 @@ def relu(x, temperature, ops):
 
 def smin(a, b, temperature, ops):
     """``min(a, b)``; smooth: ``a - softplus_t(a - b)``, below the exact min by at most t*log 2."""
+    if temperature == 0:
+        return ops.fmin(a, b)
     return a - relu(a - b, temperature, ops)
 
 
 def smax(a, b, temperature, ops):
-    """``max(a, b)``; smooth: ``a + softplus_t(b - a)``."""
+    """``max(a, b)``; smooth: ``a + softplus_t(b - a)``, above the exact max by at most t*log 2."""
+    if temperature == 0:
+        return ops.fmax(a, b)
     return a + relu(b - a, temperature, ops)
 
 

@@ -1,0 +1,84 @@
+"""Configuration: METHOD.md defaults, validation that names the field, variants."""
+
+import dataclasses
+import math
+
+import pytest
+
+from dsmpepc_nlp.config import (
+    BoundsConfig,
+    ControlLawConfig,
+    CostConfig,
+    HorizonConfig,
+    PlannerConfig,
+    RobotConfig,
+    RobotState,
+    SmoothingConfig,
+    SolverConfig,
+)
+
+
+def test_defaults_are_the_methods():
+    cfg = PlannerConfig()
+    assert (cfg.control_law.k1, cfg.control_law.k2, cfg.control_law.beta) == (1.5, 3.0, 0.4)
+    assert (cfg.control_law.lam, cfg.control_law.r_thresh) == (2.0, 1.2)
+    assert (cfg.horizon.dt, cfg.horizon.n_steps) == (0.2, 25)
+    assert (cfg.cost.a, cfg.cost.s_ttc, cfg.cost.s_ttg) == (0.7, 0.5, 1e-3)
+    assert (cfg.cost.sigma_static, cfg.cost.sigma_dynamic) == (0.1, 0.2)
+    assert (cfg.cost.c_heading, cfg.cost.c_v, cfg.cost.c_w, cfg.cost.c_collision) == (
+        0.2, 0.2, 0.1, 0.1)
+    assert cfg.z_upper == (8.0, 1.0, 1.8, cfg.robot.v_limit)
+    assert cfg.docking.radius == 2.0
+
+
+def test_variants_differ_only_in_the_two_switches():
+    names = ("mpepc", "ds-mpepc", "pc-only", "terminal-only")
+    configs = [PlannerConfig.variant(name) for name in names]
+    assert [c.variant_name for c in configs] == list(names)
+    assert PlannerConfig.mpepc() == configs[0] and PlannerConfig.ds_mpepc() == configs[1]
+    stripped = {dataclasses.replace(c, anticipatory_pc=True, terminal_cost=True) for c in configs}
+    assert len(stripped) == 1
+    with pytest.raises(ValueError, match="variant"):
+        PlannerConfig.variant("dwa")
+
+
+@pytest.mark.parametrize(
+    ("make", "field"),
+    [
+        (lambda: RobotConfig(v_limit=-1.0), "v_limit"),
+        (lambda: RobotConfig(omega_limit=math.nan), "omega_limit"),
+        (lambda: RobotConfig(footprint=((0.0, 0.0, -0.1),)), "footprint"),
+        (lambda: RobotConfig(footprint=()), "footprint"),
+        (lambda: RobotConfig(footprint=((0.0, 0.0),)), "footprint"),
+        (lambda: ControlLawConfig(k1=0.0), "k1"),
+        (lambda: ControlLawConfig(r_thresh="far"), "r_thresh"),
+        (lambda: HorizonConfig(n_steps=0), "n_steps"),
+        (lambda: HorizonConfig(n_steps=2.5), "n_steps"),
+        (lambda: HorizonConfig(dt=math.inf), "dt"),
+        (lambda: BoundsConfig(r_min=2.0, r_max=1.0), "r_max"),
+        (lambda: CostConfig(a=1.5), "a"),
+        (lambda: CostConfig(s_ttc=0.0), "s_ttc"),
+        (lambda: SmoothingConfig(distance=-0.1), "distance"),
+        (lambda: PlannerConfig(anticipatory_pc=1), "anticipatory_pc"),
+        (lambda: PlannerConfig(robot="big"), "robot"),
+        (lambda: RobotState(0.0, math.inf, 0.0), "y"),
+        (lambda: SolverConfig(method="newton"), "method"),
+        (lambda: SolverConfig(n_samples=0), "n_samples"),
+    ],
+)
+def test_invalid_values_raise_naming_the_field(make, field):
+    with pytest.raises(ValueError, match=rf"\.{field} = .*must be"):
+        make()
+
+
+def test_infinite_rate_limits_are_allowed_and_replace_works():
+    robot = RobotConfig(accel_limit=math.inf, alpha_limit=math.inf)
+    cfg = dataclasses.replace(PlannerConfig(), robot=robot)
+    assert cfg.robot.accel_limit == math.inf
+    assert dataclasses.replace(cfg.cost, s_ttc=0.3).s_ttc == 0.3
+
+
+def test_footprint_radii():
+    robot = RobotConfig(footprint=((-0.2, 0.0, 0.2), (0.2, 0.0, 0.2)))
+    assert robot.inflation_radius == pytest.approx(0.2)
+    assert robot.bounding_radius == pytest.approx(0.4)
