@@ -6,13 +6,15 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 
+from .errors import InputError
+
 
 def _fail(owner: str, name: str, value, allowed: str) -> None:
-    raise ValueError(f"{owner}.{name} = {value!r}: must be {allowed}")
+    raise InputError(f"{owner}.{name} = {value!r}: must be {allowed}")
 
 
 def _finite(owner, name, value, *, low=-math.inf, high=math.inf, low_open=False, allow_inf=False):
-    """Check a real number against an interval; raise ValueError naming the field otherwise."""
+    """Check a real number against an interval; raise InputError naming the field otherwise."""
     try:
         number = float(value)
     except (TypeError, ValueError):
@@ -300,7 +302,7 @@ class PlannerConfig:
         """One of ``mpepc``, ``ds-mpepc``, ``pc-only``, ``terminal-only``."""
         switches = VARIANTS.get(name)
         if switches is None:
-            raise ValueError(f"variant = {name!r}: must be one of {', '.join(VARIANTS)}")
+            raise InputError(f"variant = {name!r}: must be one of {', '.join(VARIANTS)}")
         return cls(anticipatory_pc=switches[0], terminal_cost=switches[1], **changes)
 
     @property
@@ -424,5 +426,5 @@ class SolverConfig:
         """``nlp`` (IPOPT), ``fast`` or ``sampling``, as on the command line."""
         makers = {"nlp": cls, "fast": cls.fast, "sampling": cls.sampling}
         if name not in makers:
-            raise ValueError(f"solver = {name!r}: must be one of {', '.join(makers)}")
+            raise InputError(f"solver = {name!r}: must be one of {', '.join(makers)}")
         return makers[name]()

@@ -8,6 +8,7 @@ import casadi as ca
 import numpy as np
 
 from .config import PlannerConfig, RobotState, SmoothingConfig
+from .errors import InputError
 from .smooth import CASADI, NUMPY, sabs, smax, smin, smin_positive
 
 EXACT = SmoothingConfig.exact()
@@ -167,9 +168,9 @@ def rollout(z, state: RobotState, config: PlannerConfig, smoothing=EXACT) -> Tra
     """
     z = np.asarray(z, dtype=float)
     if z.shape[-1:] != (4,) or z.ndim not in (1, 2):
-        raise ValueError(f"z has shape {z.shape}: must be (4,) or (n, 4)")
+        raise InputError(f"z has shape {z.shape}: must be (4,) or (n, 4)")
     if not np.all(np.isfinite(z)):
-        raise ValueError("z contains NaN or inf: must be finite")
+        raise InputError("z contains NaN or inf: must be finite")
     batch = np.atleast_2d(z)
     n, n_steps = batch.shape[0], config.horizon.n_steps
     ones = np.ones(n)

@@ -16,6 +16,8 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from .errors import InputError
+
 FAR = 1e3
 """Signed distance (m) reported everywhere on a grid without any occupied cell."""
 
@@ -29,7 +31,7 @@ _NAV_CACHE_SIZE = 16  # navigation functions kept per world; moving goals would 
 def _finite_vector(name, value, size):
     arr = np.array(value, dtype=float)
     if arr.shape != (size,) or not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}={value!r}: expected {size} finite numbers")
+        raise InputError(f"{name}={value!r}: expected {size} finite numbers")
     return arr
 
 
@@ -37,20 +39,20 @@ def _positive(name, value, allow_zero=False):
     try:
         x = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{name}={value!r}: expected a finite number") from None
+        raise InputError(f"{name}={value!r}: expected a finite number") from None
     ok = math.isfinite(x) and (x >= 0.0 if allow_zero else x > 0.0)
     if not ok or isinstance(value, bool):
         allowed = "finite and >= 0" if allow_zero else "finite and > 0"
-        raise ValueError(f"{name}={value!r}: expected a number {allowed}")
+        raise InputError(f"{name}={value!r}: expected a number {allowed}")
     return x
 
 
 def _points(name, points):
     arr = np.asarray(points, dtype=float)
     if arr.ndim < 1 or arr.shape[-1] != 2:
-        raise ValueError(f"{name} has shape {arr.shape}: expected (..., 2)")
+        raise InputError(f"{name} has shape {arr.shape}: expected (..., 2)")
     if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} contains non-finite values: expected finite coordinates (m)")
+        raise InputError(f"{name} contains non-finite values: expected finite coordinates (m)")
     return arr
 
 
@@ -91,10 +93,10 @@ def _read_pgm(path):
     try:
         data = Path(path).read_bytes()
     except OSError as exc:
-        raise ValueError(f"image {str(path)!r}: cannot read ({exc.strerror})") from None
+        raise InputError(f"image {str(path)!r}: cannot read ({exc.strerror})") from None
     magic = data[:2]
     if magic not in (b"P5", b"P2"):
-        raise ValueError(
+        raise InputError(
             f"image {str(path)!r}: not a PGM file (magic {magic!r}, expected P5 or P2)"
         )
 
@@ -112,14 +114,14 @@ def _read_pgm(path):
             pos += 1
         token = data[start:pos]
         if not token.isdigit():
-            raise ValueError(
+            raise InputError(
                 f"image {str(path)!r}: truncated or malformed PGM header (got {token!r} where "
                 "width, height and maxval are expected)"
             )
         header.append(int(token))
     width, height, maxval = header
     if width < 1 or height < 1 or not 1 <= maxval <= 65535:
-        raise ValueError(
+        raise InputError(
             f"image {str(path)!r}: PGM header width={width}, height={height}, maxval={maxval}: "
             "expected width, height >= 1 and 1 <= maxval <= 65535"
         )
@@ -130,7 +132,7 @@ def _read_pgm(path):
         dtype = np.dtype(">u2") if maxval > 255 else np.dtype(np.uint8)
         nbytes = count * dtype.itemsize
         if len(data) - pos < nbytes:
-            raise ValueError(
+            raise InputError(
                 f"image {str(path)!r}: truncated PGM raster ({len(data) - pos} bytes, "
                 f"expected {nbytes} for {width}x{height})"
             )
@@ -139,13 +141,13 @@ def _read_pgm(path):
         text = b"\n".join(line.split(b"#", 1)[0] for line in data[pos:].splitlines())
         tokens = text.split()
         if len(tokens) < count or not all(t.isdigit() for t in tokens[:count]):
-            raise ValueError(
+            raise InputError(
                 f"image {str(path)!r}: truncated or malformed ascii PGM raster "
                 f"(expected {count} integers for {width}x{height})"
             )
         pixels = np.array([int(t) for t in tokens[:count]], dtype=np.int64)
     if np.any(pixels > maxval):
-        raise ValueError(f"image {str(path)!r}: pixel values exceed maxval={maxval}")
+        raise InputError(f"image {str(path)!r}: pixel values exceed maxval={maxval}")
     return pixels.reshape(height, width), maxval
 
 
@@ -187,11 +189,11 @@ class OccupancyGrid:
     def __init__(self, occupied, resolution, origin=(0.0, 0.0)):
         arr = np.asarray(occupied)
         if arr.ndim != 2 or arr.shape[0] < 1 or arr.shape[1] < 1:
-            raise ValueError(f"occupied has shape {arr.shape}: expected (ny, nx) with ny, nx >= 1")
+            raise InputError(f"occupied has shape {arr.shape}: expected (ny, nx) with ny, nx >= 1")
         if arr.dtype != bool and (
             not np.issubdtype(arr.dtype, np.number) or not np.all((arr == 0) | (arr == 1))
         ):
-            raise ValueError(
+            raise InputError(
                 f"occupied has dtype {arr.dtype} and values other than 0/1: expected bool or 0/1"
             )
         self._occupied = _readonly(np.array(arr, dtype=bool))
@@ -310,13 +312,13 @@ class OccupancyGrid:
         clear = np.asarray(clearance, dtype=float)
         max_range = _positive("max_range", max_range, allow_zero=True)
         if not np.all(np.isfinite(head)):
-            raise ValueError("headings contains non-finite values: expected finite angles (rad)")
+            raise InputError("headings contains non-finite values: expected finite angles (rad)")
         if not np.all(np.isfinite(clear)):
-            raise ValueError("clearance contains non-finite values: expected finite distances (m)")
+            raise InputError("clearance contains non-finite values: expected finite distances (m)")
         try:
             shape = np.broadcast_shapes(orig.shape[:-1], head.shape, clear.shape)
         except ValueError:
-            raise ValueError(
+            raise InputError(
                 f"origins {orig.shape}, headings {head.shape} and clearance {clear.shape}: "
                 "expected broadcastable shapes (..., 2), (...), (...)"
             ) from None
@@ -369,54 +371,54 @@ class OccupancyGrid:
         try:
             meta = yaml.safe_load(path.read_text())
         except OSError as exc:
-            raise ValueError(f"{where}: cannot read ({exc.strerror})") from None
+            raise InputError(f"{where}: cannot read ({exc.strerror})") from None
         except yaml.YAMLError as exc:
-            raise ValueError(f"{where}: invalid YAML ({exc})") from None
+            raise InputError(f"{where}: invalid YAML ({exc})") from None
         if not isinstance(meta, dict):
-            raise ValueError(  # noqa: TRY004 - bad file content, not a bad argument
+            raise InputError(  # noqa: TRY004 - bad file content, not a bad argument
                 f"{where}: expected a mapping with image, resolution, origin"
             )
         for key in ("image", "resolution", "origin"):
             if key not in meta:
-                raise ValueError(f"{where}: missing field {key!r}")
+                raise InputError(f"{where}: missing field {key!r}")
 
         def field(fn, key, *args):
             try:
                 return fn(key, meta[key], *args)
             except ValueError as exc:
-                raise ValueError(f"{where}: {exc}") from None
+                raise InputError(f"{where}: {exc}") from None
 
         resolution = field(_positive, "resolution")
         origin = meta["origin"]
         if not isinstance(origin, (list, tuple)) or len(origin) != 3:
-            raise ValueError(f"{where}: origin={origin!r}: expected [x, y, yaw]")
+            raise InputError(f"{where}: origin={origin!r}: expected [x, y, yaw]")
         origin = field(_finite_vector, "origin", 3)
         if origin[2] != 0.0:
-            raise ValueError(f"{where}: origin yaw={origin[2]!r}: only 0 is supported")
+            raise InputError(f"{where}: origin yaw={origin[2]!r}: only 0 is supported")
         negate = meta.get("negate", 0)
         if negate not in (0, 1):
-            raise ValueError(f"{where}: negate={negate!r}: expected 0 or 1")
+            raise InputError(f"{where}: negate={negate!r}: expected 0 or 1")
         thresholds = {}
         for key, default in (("occupied_thresh", 0.65), ("free_thresh", 0.196)):
             value = meta.get(key, default)
             number = isinstance(value, (int, float)) and not isinstance(value, bool)
             if not number or not 0 <= value <= 1:
-                raise ValueError(f"{where}: {key}={value!r}: expected a number in [0, 1]")
+                raise InputError(f"{where}: {key}={value!r}: expected a number in [0, 1]")
             thresholds[key] = float(value)
         if thresholds["free_thresh"] > thresholds["occupied_thresh"]:
-            raise ValueError(
+            raise InputError(
                 f"{where}: free_thresh={thresholds['free_thresh']} > occupied_thresh="
                 f"{thresholds['occupied_thresh']}: expected free_thresh <= occupied_thresh"
             )
         mode = meta.get("mode", "trinary")
         if mode not in ("trinary", "scale"):
-            raise ValueError(f"{where}: mode={mode!r}: expected 'trinary' or 'scale'")
+            raise InputError(f"{where}: mode={mode!r}: expected 'trinary' or 'scale'")
         image = meta["image"]
         if not isinstance(image, str) or not image:
-            raise ValueError(f"{where}: image={image!r}: expected a file name")
+            raise InputError(f"{where}: image={image!r}: expected a file name")
         image_path = path.parent / image
         if not image_path.is_file():
-            raise ValueError(f"{where}: image file {str(image_path)!r} (field 'image') not found")
+            raise InputError(f"{where}: image file {str(image_path)!r} (field 'image') not found")
 
         pixels, maxval = _read_pgm(image_path)
         lightness = pixels / maxval
@@ -441,7 +443,7 @@ class OccupancyGrid:
         if image_name is None:
             image_name = path.stem + ".pgm"
         if not isinstance(image_name, str) or not image_name or Path(image_name).name != image_name:
-            raise ValueError(f"image_name={image_name!r}: expected a plain file name")
+            raise InputError(f"image_name={image_name!r}: expected a plain file name")
         ny, nx = self.shape
         raster = np.where(self._occupied[::-1], 0, 254).astype(np.uint8)
         _atomic_write(path.parent / image_name, f"P5\n{nx} {ny}\n255\n".encode() + raster.tobytes())
@@ -663,17 +665,17 @@ class DynamicObstacle:
     def __post_init__(self):
         centers = np.array(self.centers, dtype=float)
         if centers.ndim != 2 or centers.shape[0] < 1 or centers.shape[1] != 2:
-            raise ValueError(f"centers has shape {centers.shape}: expected (m, 2) with m >= 1")
+            raise InputError(f"centers has shape {centers.shape}: expected (m, 2) with m >= 1")
         if not np.all(np.isfinite(centers)):
-            raise ValueError(f"centers={centers.tolist()}: expected finite positions (m)")
+            raise InputError(f"centers={centers.tolist()}: expected finite positions (m)")
         radii = np.array(self.radii, dtype=float)
         if radii.shape != (centers.shape[0],):
-            raise ValueError(f"radii has shape {radii.shape}: expected ({centers.shape[0]},)")
+            raise InputError(f"radii has shape {radii.shape}: expected ({centers.shape[0]},)")
         if not np.all(np.isfinite(radii) & (radii > 0)):
-            raise ValueError(f"radii={radii.tolist()}: expected finite radii > 0 (m)")
+            raise InputError(f"radii={radii.tolist()}: expected finite radii > 0 (m)")
         velocity = _finite_vector("velocity", self.velocity, 2)
         if self.kind not in _KINDS:
-            raise ValueError(f"kind={self.kind!r}: expected one of {_KINDS}")
+            raise InputError(f"kind={self.kind!r}: expected one of {_KINDS}")
         object.__setattr__(self, "centers", _readonly(centers))
         object.__setattr__(self, "radii", _readonly(radii))
         object.__setattr__(self, "velocity", _readonly(velocity))
@@ -695,7 +697,7 @@ class DynamicObstacle:
         x, y, phi = _finite_vector("pose", pose, 3)
         circles = np.array(footprint, dtype=float)
         if circles.ndim != 2 or circles.shape[0] < 1 or circles.shape[1] != 3:
-            raise ValueError(
+            raise InputError(
                 f"footprint has shape {circles.shape}: expected (m, 3) rows (cx, cy, radius)"
             )
         c, s = math.cos(phi), math.sin(phi)
