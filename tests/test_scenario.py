@@ -1,0 +1,131 @@
+"""Scenario files: the built-ins load, and every schema violation names file, field and rule."""
+
+import copy
+
+import numpy as np
+import pytest
+import yaml
+
+from dsmpepc_nlp.errors import InputError
+from dsmpepc_nlp.scenario import (
+    ScenarioError,
+    builtin_names,
+    load_scenario,
+    parse_scenario,
+)
+from dsmpepc_nlp.simulate import FixedGoal, FollowGoal
+from dsmpepc_nlp.world import OccupancyGrid
+
+BUILTINS = ["circle-10", "circle-4", "hall", "l-corridor", "narrow-corridor", "t-corridor"]
+
+VALID = {
+    "name": "tiny",
+    "duration": 2.0,
+    "robots": [{"name": "a", "start": [0.0, 0.0, 0.0], "goal": {"position": [2.0, 0.0]},
+                "footprint": [[-0.1, 0.0, 0.2], [0.1, 0.0, 0.2]], "v_limit": 0.8}],
+    "parked_robots": [{"pose": [1.0, 1.0, 0.0], "footprint": [[0.0, 0.0, 0.3]]}],
+    "pedestrians": [{"radius": 0.25, "waypoints": [[0.0, 3.0, 0.0], [2.0, 3.0, 2.0]]},
+                    {"start": [5.0, 5.0], "velocity": [-0.5, 0.0]}],
+}
+
+
+def test_the_builtins_are_the_six_paper_scenarios_and_all_load():
+    assert builtin_names() == BUILTINS
+    for name in BUILTINS:
+        scenario = load_scenario(name)
+        assert scenario.name == name
+        assert 0 < scenario.duration <= 40
+
+
+def test_builtin_contents_match_the_paper_descriptions():
+    t = load_scenario("t-corridor")
+    assert len(t.agents) == 1 and len(t.parked) == 1 and isinstance(t.grid, OccupancyGrid)
+    narrow = load_scenario("narrow-corridor")
+    assert len(narrow.agents) == 2
+    assert all(len(a.robot.footprint) > 1 for a in narrow.agents)  # non-circular
+    for n in (4, 10):
+        c = load_scenario(f"circle-{n}")
+        assert len(c.agents) == n and c.start_noise > 0
+        for a in c.agents:  # antipodal goals
+            assert np.allclose(a.goal.position, (-a.start.x, -a.start.y), atol=1e-3)
+    hall = load_scenario("hall")
+    assert len(hall.pedestrians) == 12 and isinstance(hall.agents[0].goal, FollowGoal)
+    assert isinstance(load_scenario("l-corridor").agents[0].goal, FollowGoal)
+
+
+def test_a_user_file_with_a_map_loads(tmp_path):
+    grid = OccupancyGrid(np.eye(10, dtype=bool), 0.5, (-1.0, -1.0))
+    grid.to_yaml(tmp_path / "room.map.yaml")
+    doc = dict(VALID, map="room.map.yaml")
+    (tmp_path / "mine.yaml").write_text(yaml.safe_dump(doc))
+    s = load_scenario(tmp_path / "mine.yaml")
+    assert np.array_equal(s.grid.occupied, grid.occupied)
+    assert s.map_path.endswith("room.map.yaml")
+    a = s.agents[0]
+    assert isinstance(a.goal, FixedGoal) and a.goal.tolerance == 0.25
+    assert a.robot.v_limit == 0.8 and len(a.robot.footprint) == 2
+    assert s.pedestrians[0].radius == 0.25
+    assert np.allclose(s.pedestrians[1].position(2.0), (4.0, 5.0))
+
+
+def mutate(change):
+    doc = copy.deepcopy(VALID)
+    change(doc)
+    return doc
+
+
+BAD = [
+    (lambda d: d.update(colour="red"), "colour", "unknown key"),
+    (lambda d: d.pop("duration"), "duration", "missing"),
+    (lambda d: d.update(duration="long"), "duration", "not a number"),
+    (lambda d: d.update(duration=float("nan")), "duration", "finite"),
+    (lambda d: d.update(duration=-1), "duration", "> 0"),
+    (lambda d: d.update(robots=[]), "robots", "at least 1"),
+    (lambda d: d["robots"][0].update(start=[0, 0]), "robots[0].start", "3 numbers"),
+    (lambda d: d["robots"][0].update(start=[0, float("inf"), 0]), "robots[0].start[1]", "finite"),
+    (lambda d: d["robots"][0]["goal"].update(follow=0), "robots[0].goal", "exactly one"),
+    (lambda d: d["robots"][0].update(goal={"follow": 7}), "robots[0].goal.follow",
+     "does not exist"),
+    (lambda d: d["robots"][0].update(goal={"position": [1, 1], "distance": 2}),
+     "robots[0].goal.distance", "only allowed"),
+    (lambda d: d["robots"][0]["footprint"][1].__setitem__(2, -0.2),
+     "robots[0].footprint[1][2]", "> 0"),
+    (lambda d: d["robots"][0].update(v_limit=True), "robots[0].v_limit", "not a number"),
+    (lambda d: d["robots"][0].update(speed=1), "robots[0].speed", "allowed keys"),
+    (lambda d: d["robots"].append(dict(d["robots"][0])), "robots[1].name", "unique"),
+    (lambda d: d["pedestrians"][0].update(radius=0), "pedestrians[0].radius", "> 0"),
+    (lambda d: d["pedestrians"][0]["waypoints"].append([1.0, 0, 0]),
+     "pedestrians[0].waypoints[2][0]", "strictly increasing"),
+    (lambda d: d["pedestrians"][1].pop("velocity"), "pedestrians[1]", "start' and 'velocity"),
+    (lambda d: d["parked_robots"][0].pop("footprint"), "parked_robots[0].footprint", "missing"),
+    (lambda d: d.update(map="nowhere.yaml"), "map", "cannot read"),
+]
+
+
+@pytest.mark.parametrize("change, field, rule", BAD)
+def test_violations_name_the_file_the_field_and_the_rule(tmp_path, change, field, rule):
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(mutate(change)))
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    message = str(info.value)
+    assert "bad.yaml" in message and f"{field}:" in message and rule in message, message
+    assert isinstance(info.value, InputError) and isinstance(info.value, ValueError)
+
+
+def test_unknown_names_and_broken_files(tmp_path):
+    with pytest.raises(ScenarioError, match="t-corridor"):  # lists the built-ins
+        load_scenario("no-such-scenario")
+    with pytest.raises(ScenarioError, match="not found"):
+        load_scenario(tmp_path / "missing.yaml")
+    (tmp_path / "broken.yaml").write_text("name: [unclosed\n")
+    with pytest.raises(ScenarioError, match="invalid YAML"):
+        load_scenario(tmp_path / "broken.yaml")
+    (tmp_path / "list.yaml").write_text("- 1\n- 2\n")
+    with pytest.raises(ScenarioError, match="must be a mapping"):
+        load_scenario(tmp_path / "list.yaml")
+
+
+def test_parse_scenario_accepts_a_mapping():
+    s = parse_scenario(copy.deepcopy(VALID))
+    assert s.agents[0].name == "a" and s.map_path is None and s.grid is None
