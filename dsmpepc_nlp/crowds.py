@@ -1,0 +1,376 @@
+"""ETH/UCY pedestrian recordings as crowd-crossing scenarios, and the crowd benchmark.
+
+File format (``/work/shared/data/ethucy/FORMAT.md``): tab-separated ``frame ped_id x y``, all
+written as floats, metres, one annotation step every 10 frames = 0.4 s.
+
+A scenario is a time window of a recording. The pedestrians whose tracks overlap the window are
+replayed from their timestamped waypoints (linear interpolation, they do not react). Before a
+track starts and after it ends the pedestrian is parked far away (``OFFSTAGE``); the jump there
+happens within ``JUMP`` seconds placed half a cycle away from every simulation time, so no cycle
+ever sees it. The robot crosses from a start to a goal drawn, seeded, from the positions the
+pedestrians walked in the window (where the crowd is dense), ``min_distance`` to
+``max_distance`` apart, the start at least ``start_clearance`` (gap) from every pedestrian over
+the first second.
+
+eth (``biwi_eth``): its median walking speed at 0.4 s per step is 2.45 m/s, twice any other
+scene (FORMAT.md). We rescale time: eth steps are taken as 0.8 s, which gives 1.23 m/s.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+import os
+import sys
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from .config import PlannerConfig, RobotState, SolverConfig
+from .results import ResultTable
+
+FRAMES_PER_STEP = 10
+"""Frame ids advance by this much per annotation step."""
+STEP_TIME = 0.4
+"""Seconds per annotation step (2.5 Hz)."""
+STEP_TIME_OVERRIDES = {"biwi_eth": 0.8}
+"""Recordings whose step is rescaled (FORMAT.md's caveat on eth's speed), s."""
+OFFSTAGE = (1.0e4, 1.0e4)
+"""Where pedestrians wait before their track starts and after it ends, m."""
+JUMP = 0.01
+"""Time taken by the jump between the stage and ``OFFSTAGE``, s."""
+PEDESTRIAN_RADIUS = 0.3
+"""Pedestrian body radius, m (CrowdNav's)."""
+DEFAULT_DURATION = 30.0
+"""Episode length, s."""
+SCENES = ("eth", "hotel", "univ", "zara1", "zara2")
+"""Scene folders of the standard split."""
+
+
+@dataclass(frozen=True)
+class Recording:
+    """One annotated recording: rows sorted by frame.
+
+    ``frame`` (n,) int, ``ped`` (n,) int, ``xy`` (n, 2) m; ``step_time`` s per 10 frames.
+    """
+
+    name: str
+    frame: np.ndarray
+    ped: np.ndarray
+    xy: np.ndarray
+    step_time: float = STEP_TIME
+
+    def time(self, frame) -> np.ndarray:
+        """Seconds since frame 0."""
+        return np.asarray(frame, dtype=float) / FRAMES_PER_STEP * self.step_time
+
+    @property
+    def span(self) -> tuple:
+        """(first, last) annotated time, s."""
+        return float(self.time(self.frame.min())), float(self.time(self.frame.max()))
+
+    def median_speed(self) -> float:
+        """Median step displacement over the step time, m/s."""
+        speeds = []
+        for pid in np.unique(self.ped):
+            sel = self.ped == pid
+            if sel.sum() > 1:
+                speeds.append(np.linalg.norm(np.diff(self.xy[sel], axis=0), axis=1))
+        return float(np.median(np.concatenate(speeds)) / self.step_time) if speeds else 0.0
+
+
+def load_recording(path, step_time: float | None = None) -> Recording:
+    """Read one ETH/UCY text file; ValueError naming the file and line on bad content."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ValueError(f"ETH/UCY file {str(path)!r}: does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"ETH/UCY file {str(path)!r}: cannot read ({exc})") from None
+    rows = []
+    for number, line in enumerate(text.splitlines(), 1):
+        if not line.strip():
+            continue
+        parts = line.split("\t") if "\t" in line else line.split()
+        try:
+            values = [float(p) for p in parts]
+        except ValueError:
+            values = []
+        if len(values) != 4 or not all(math.isfinite(v) for v in values):
+            raise ValueError(f"ETH/UCY file {str(path)!r}, line {number}: {line.strip()!r}: "
+                             "expected 4 tab-separated numbers 'frame ped_id x y'")
+        rows.append(values)
+    if not rows:
+        raise ValueError(f"ETH/UCY file {str(path)!r}: no rows")
+    data = np.array(rows)
+    order = np.lexsort((data[:, 1], data[:, 0]))
+    data = data[order]
+    frame, ped = data[:, 0].astype(np.int64), data[:, 1].astype(np.int64)
+    if np.any((np.diff(frame) == 0) & (np.diff(ped) == 0)):
+        raise ValueError(f"ETH/UCY file {str(path)!r}: duplicate (frame, ped_id) rows")
+    if step_time is None:
+        step_time = STEP_TIME_OVERRIDES.get(path.stem.removesuffix("_train")
+                                            .removesuffix("_val"), STEP_TIME)
+    return Recording(path.stem, frame, ped, data[:, 2:4].copy(), float(step_time))
+
+
+def scene_files(data_dir, scene: str) -> list:
+    """Recordings of ``scene`` (``data_dir/scene/test/*.txt``) or ``scene`` itself as a file."""
+    candidate = Path(scene)
+    if candidate.suffix == ".txt" and candidate.is_file():
+        return [candidate]
+    folder = Path(data_dir) / scene / "test"
+    files = sorted(folder.glob("*.txt"))
+    if not files:
+        raise ValueError(f"scene {scene!r}: no recordings in {str(folder)!r} "
+                         f"(scenes: {', '.join(SCENES)}, or a .txt file)")
+    return files
+
+
+def _tracks(recording: Recording, t0: float, t1: float, offset: float) -> list:
+    """Pedestrians overlapping [t0, t1] as Pedestrian objects, times relative to t0 + offset."""
+    from .simulate import Pedestrian
+
+    times = recording.time(recording.frame)
+    out = []
+    for pid in np.unique(recording.ped):
+        sel = recording.ped == pid
+        t, xy = times[sel], recording.xy[sel]
+        if t[-1] < t0 or t[0] > t1:
+            continue
+        rel = np.round(t - t0 + offset, 9)
+        waypoints_t, waypoints_xy = [rel], [xy]
+        if rel[0] > 0:
+            waypoints_t.insert(0, [rel[0] - JUMP])
+            waypoints_xy.insert(0, [OFFSTAGE])
+        waypoints_t.append([rel[-1] + JUMP])
+        waypoints_xy.append([OFFSTAGE])
+        tt = np.concatenate(waypoints_t)
+        pp = np.concatenate(waypoints_xy)
+        if tt.size == 2 and rel.size == 1 and rel[0] <= 0:  # a single point, gone already
+            continue
+        out.append(Pedestrian(tt, pp, radius=PEDESTRIAN_RADIUS))
+    return out
+
+
+def crossing_scenario(recording: Recording, rng: np.random.Generator, *,
+                      duration=DEFAULT_DURATION, robot=None, dt=0.2, min_distance=4.0,
+                      max_distance=8.0, start_clearance=0.5, goal_tolerance=0.3,
+                      min_pedestrians=3, tries=200, name=None):
+    """A seeded window of ``recording`` with a robot crossing where pedestrians walk.
+
+    Parameters
+    ----------
+    recording : Recording
+    rng : numpy.random.Generator
+        Draws the window start, the start and the goal.
+    duration : float
+        Window and episode length, s.
+    robot : RobotConfig, optional
+        The robot (default ``RobotConfig()``); its bounding radius sets the start clearance.
+    dt : float
+        Simulation step, s: pedestrian times are shifted by ``dt / 2`` so that no cycle falls on
+        a jump to or from ``OFFSTAGE``.
+    min_distance, max_distance : float
+        Start-goal distance range, m.
+    start_clearance : float
+        Smallest gap between the robot at its start and any pedestrian over the first second, m.
+    goal_tolerance : float
+        Success radius, m.
+    min_pedestrians : int
+        Windows with fewer distinct pedestrians are redrawn.
+
+    Returns
+    -------
+    Scenario, and a dict describing the draw (window start, start, goal, pedestrians).
+    """
+    from .config import RobotConfig
+    from .simulate import Agent, FixedGoal, Scenario
+
+    robot = robot or RobotConfig()
+    first, last = recording.span
+    if last - first < duration:
+        raise ValueError(f"recording {recording.name!r}: spans {last - first:.1f} s, shorter "
+                         f"than the {duration} s window")
+    times = recording.time(recording.frame)
+    radius = robot.bounding_radius
+    for _ in range(tries):
+        t0 = float(rng.uniform(first, last - duration))
+        inside = (times >= t0) & (times <= t0 + duration)
+        if len(np.unique(recording.ped[inside])) < min_pedestrians:
+            continue
+        walked = recording.xy[inside]
+        start_xy = walked[rng.integers(len(walked))]
+        gaps = np.linalg.norm(walked - start_xy, axis=1)
+        ok = (gaps >= min_distance) & (gaps <= max_distance)
+        if not ok.any():
+            continue
+        goal_xy = walked[rng.choice(np.flatnonzero(ok))]
+        start_xy = start_xy + rng.normal(0.0, 0.1, 2)
+        peds = _tracks(recording, t0, t0 + duration, dt / 2)
+        early = np.array([[p.position(t) for p in peds] for t in np.arange(0.0, 1.0 + 1e-9, dt)])
+        if early.size and np.min(np.linalg.norm(early - start_xy, axis=-1)) \
+                < radius + PEDESTRIAN_RADIUS + start_clearance:
+            continue
+        heading = math.atan2(goal_xy[1] - start_xy[1], goal_xy[0] - start_xy[0])
+        agent = Agent("robot", RobotState(float(start_xy[0]), float(start_xy[1]), heading),
+                      FixedGoal((float(goal_xy[0]), float(goal_xy[1])), goal_tolerance),
+                      robot=robot)
+        scenario = Scenario(name=name or f"{recording.name}@{t0:.1f}s", agents=(agent,),
+                            pedestrians=tuple(peds), duration=float(duration),
+                            description=f"ETH/UCY {recording.name} from {t0:.2f} s")
+        draw = {"recording": recording.name, "window_start": t0,
+                "start": [float(v) for v in start_xy], "goal": [float(v) for v in goal_xy],
+                "pedestrians": len(peds)}
+        return scenario, draw
+    raise ValueError(f"recording {recording.name!r}: no valid crossing in {tries} draws "
+                     f"(need {min_pedestrians} pedestrians and a clear start)")
+
+
+# ---------------------------------------------------------------------------------------------
+# benchmark
+
+
+@dataclass(frozen=True)
+class CrowdSettings:
+    """What a crowd benchmark depends on besides variant and episode (stored with results)."""
+
+    data: str
+    scene: str
+    solver: str = "nlp"
+    n_samples: int | None = None
+    duration: float = DEFAULT_DURATION
+    v_limit: float = 1.0
+
+    def meta(self) -> dict:
+        return {"benchmark": "crowd", "scene": self.scene, "solver": self.solver,
+                "n_samples": self.n_samples, "duration": self.duration,
+                "v_limit": self.v_limit}
+
+
+def episode_scenario(settings: CrowdSettings, episode: int, seed: int):
+    """Scenario number ``episode`` of the seeded set (the same for every variant)."""
+    from .config import RobotConfig
+
+    files = scene_files(settings.data, settings.scene)
+    rng = np.random.default_rng([seed, episode])
+    recording = load_recording(files[int(rng.integers(len(files)))])
+    return crossing_scenario(recording, rng, duration=settings.duration,
+                             robot=RobotConfig(v_limit=settings.v_limit),
+                             name=f"{settings.scene}-{seed}-{episode}")
+
+
+def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int) -> dict:
+    """One crossing with one planner variant (``orca`` included); the result row."""
+    from .metrics import episode_metrics
+
+    row = {"episode": int(episode), "seed": int(seed), "variant": variant}
+    started = time.perf_counter()
+    try:
+        scenario, draw = episode_scenario(settings, episode, seed)
+        row.update(draw)
+        rng = np.random.default_rng([seed, episode])
+        if variant == "orca":
+            from .orca import simulate_orca
+
+            episode_log = simulate_orca(scenario, PlannerConfig(), rng,
+                                        record_trajectories=False)
+        else:
+            from .simulate import simulate
+
+            solver = SolverConfig.named(settings.solver)
+            if settings.n_samples:
+                solver = replace(solver, n_samples=settings.n_samples)
+            episode_log = simulate(scenario, PlannerConfig.variant(variant), solver, rng,
+                                   record_trajectories=False)
+        m = episode_metrics(episode_log)[0]
+        row.update(outcome=m["outcome"], time=m["outcome_time"],
+                   time_to_goal=m["time_to_goal"], path_length=m["path_length"],
+                   discomfort=m["discomfort"], min_distance=m["min_dynamic_clearance"],
+                   plan_time_median=m["plan_time_median"], plan_time_p95=m["plan_time_p95"])
+    except ImportError:
+        raise
+    except Exception as exc:
+        row.update(outcome="error", message=f"{type(exc).__name__}: {exc}")
+    row["wall_time"] = time.perf_counter() - started
+    return row
+
+
+def _task(args):
+    return run_episode(*args)
+
+
+def summarise(rows) -> dict:
+    """CrowdNav-style figures of a list of rows (one variant)."""
+    n = len(rows)
+    outcomes = [r["outcome"] for r in rows]
+
+    def rate(name):
+        return outcomes.count(name) / n if n else math.nan
+
+    def mean(key, pick=lambda r: True):
+        values = [r[key] for r in rows if pick(r) and r.get(key) is not None]
+        return float(np.mean(values)) if values else math.nan
+
+    gaps = [r["min_distance"] for r in rows if r.get("min_distance") is not None]
+    return {"episodes": n, "success_rate": rate("success"),
+            "collision_rate": rate("collision"), "timeout_rate": rate("timeout"),
+            "deadlock_rate": rate("deadlock"), "error_rate": rate("error"),
+            "time_to_goal": mean("time_to_goal", lambda r: r["outcome"] == "success"),
+            "discomfort": mean("discomfort"), "min_distance_mean": mean("min_distance"),
+            "min_distance": float(np.min(gaps)) if gaps else math.nan,
+            "plan_time_median": mean("plan_time_median")}
+
+
+def run_benchmark(settings: CrowdSettings, variants, episodes: int, seed: int, out_dir, *,
+                  workers=None, resume=False, overwrite=False, progress=sys.stderr) -> dict:
+    """Every (variant, episode) into ``out_dir/crowd.{json,csv}``; the summary.
+
+    The summary has the first variant's figures at the top level (``episodes``,
+    ``success_rate``, ``collision_rate``, ...) and every variant under ``variants``.
+    """
+    from .config import VARIANTS
+
+    for v in variants:
+        if v != "orca" and v not in VARIANTS:
+            raise ValueError(f"--variants: {v!r}: must be orca or one of {', '.join(VARIANTS)}")
+    if "orca" in variants:
+        from .orca import require_pyrvo
+
+        require_pyrvo()
+    scene_files(settings.data, settings.scene)  # fail early on a bad scene
+    table = ResultTable(out_dir, "crowd", ("variant", "episode", "seed"), settings.meta(),
+                        resume=resume, overwrite=overwrite)
+    tasks = [(settings, v, e, seed) for v in variants for e in range(episodes)
+             if not table.done((v, e, seed))]
+    workers = max(1, min(workers or os.cpu_count() or 1, len(tasks) or 1))
+    if progress:
+        print(f"crowd: {len(variants) * episodes - len(tasks)} runs already done, "
+              f"{len(tasks)} to run on {workers} worker(s)", file=progress, flush=True)
+    pool = None
+    if workers == 1:
+        results = map(_task, tasks)
+    else:
+        pool = multiprocessing.get_context("spawn").Pool(workers)
+        results = pool.imap_unordered(_task, tasks)
+    try:
+        for done, row in enumerate(results, 1):
+            table.add(row)
+            if progress:
+                print(f"[{done}/{len(tasks)}] {row['variant']} episode {row['episode']}: "
+                      f"{row['outcome']}", file=progress, flush=True)
+    finally:
+        if pool is not None:
+            pool.terminate()
+    per_variant = {}
+    for v in variants:
+        rows = [r for r in table.rows if r["variant"] == v and r["seed"] == seed
+                and r["episode"] < episodes]
+        per_variant[v] = summarise(rows)
+    summary = dict(per_variant[variants[0]])
+    summary.update(scene=settings.scene, seed=seed, variants=per_variant,
+                   out=str(Path(out_dir) / "crowd.csv"))
+    return summary
