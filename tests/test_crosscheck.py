@@ -1,0 +1,44 @@
+"""The cross-check and benchmark report shapes (tiny runs; speed is never asserted)."""
+
+import math
+
+import numpy as np
+
+from dsmpepc_nlp.config import PlannerConfig, SolverConfig
+from dsmpepc_nlp.crosscheck import CrosscheckResult, crosscheck, demo_cycles
+
+
+def test_demo_cycles_are_reproducible_and_move_the_robot():
+    config = PlannerConfig()
+    first = demo_cycles(config, 3, seed=4, n_samples=64)
+    second = demo_cycles(config, 3, seed=4, n_samples=64)
+    assert len(first) == 3
+    assert len(first[0][1].obstacles) == 12 and first[0][1].grid is not None
+    for (s1, _, g1), (s2, _, g2) in zip(first, second):
+        assert s1 == s2 and np.array_equal(g1, g2)
+
+
+def test_crosscheck_summary_fields():
+    config = PlannerConfig()
+    cycles = demo_cycles(config, 1, seed=0, n_samples=64)
+    result = crosscheck(cycles, config, SolverConfig(n_spread=0, max_iter=5), n_samples=256)
+    summary = result.to_dict()
+    assert set(summary) >= {"cycles", "gap_median", "gap_p95", "share_within_tol"}
+    assert summary["cycles"] == 1
+    assert np.allclose(result.gap, result.nlp_cost - result.sampled_cost)
+
+
+def test_share_within_tol_counts_non_finite_as_miss():
+    result = CrosscheckResult(np.array([1.0, math.nan]), np.array([1.0, 1.0]),
+                              np.array([0.0, math.nan]))
+    assert result.share_within_tol == 0.5
+
+
+def test_run_bench_shape():
+    from dsmpepc_nlp.benchmark import run_bench
+
+    result = run_bench(n_cycles=1, ladder=(64,))
+    for name in ("default", "fast", "sampling"):
+        assert {"median_ms", "p95_ms"} <= set(result[name])
+    assert math.isfinite(result["ratio_default_to_sampling"])
+    assert isinstance(result["table"], str)
