@@ -1,0 +1,232 @@
+"""Figures and animations: views over logged episodes and single planning cycles.
+
+Paper style (Figs. 1-5): the map black, pedestrians red with their recent traces (the followed
+one green), robot paths blue, a plan's evaluated trajectories grey and its optimum blue. Every
+function returns the figure it made (or writes a file and closes it); callers close figures they
+keep. Nothing in the core package imports this module.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import shutil
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib import animation
+from matplotlib.patches import Circle
+
+from .costs import footprint_points
+from .sampling import SamplingPlanner, structured_starts
+
+ROBOT_COLOURS = ("tab:blue", "tab:purple", "tab:cyan", "tab:olive", "tab:brown", "tab:pink",
+                 "navy", "teal", "darkorange", "slategray")
+TRACE_SECONDS = 3.0
+"""Length of the pedestrian traces, s."""
+
+
+def _robot_colour(i):
+    return ROBOT_COLOURS[i % len(ROBOT_COLOURS)]
+
+
+def draw_map(ax, grid) -> None:
+    """Occupied cells black on white, in world coordinates."""
+    if grid is None:
+        return
+    x0, y0, x1, y1 = grid.bounds
+    ax.imshow(grid.occupied, origin="lower", extent=(x0, x1, y0, y1), cmap="Greys",
+              vmin=0, vmax=1, interpolation="nearest", zorder=0)
+
+
+def _limits(episode, ax):
+    grid = episode.grid
+    if grid is not None:
+        x0, y0, x1, y1 = grid.bounds
+    else:
+        pts = [episode.states[..., :2].reshape(-1, 2), episode.goals.reshape(-1, 2)]
+        if episode.ped_positions.size:
+            pts.append(episode.ped_positions.reshape(-1, 2))
+        pts = np.concatenate(pts)
+        (x0, y0), (x1, y1) = pts.min(0) - 1.0, pts.max(0) + 1.0
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+    ax.set_aspect("equal")
+
+
+def _footprint(ax, pose, circles, colour, alpha=0.8):
+    points = footprint_points(np.asarray(pose, dtype=float), circles[:, :2])
+    return [ax.add_patch(Circle(p, r, color=colour, alpha=alpha, zorder=4))
+            for p, r in zip(points, circles[:, 2])]
+
+
+def draw_cycle(ax, episode, cycle: int, *, samples: bool = True, title: bool = True) -> None:
+    """One moment of an episode: map, pedestrians with traces, robots, paths so far, plans."""
+    draw_map(ax, episode.grid)
+    k = int(np.clip(cycle, 0, episode.n_cycles))
+    dt = episode.dt
+    followed = {int(f[0]) for f in episode.meta["follow"] if f is not None}
+    first = max(0, k - int(round(TRACE_SECONDS / dt)))
+    for j, radius in enumerate(episode.ped_radii):
+        colour = "tab:green" if j in followed else "tab:red"
+        trace = episode.ped_positions[first:k + 1, j]
+        ax.plot(trace[:, 0], trace[:, 1], color=colour, lw=1, alpha=0.6, zorder=2)
+        ax.add_patch(Circle(trace[-1], radius, color=colour, alpha=0.8, zorder=3))
+    for parked in episode.meta["parked"]:
+        _footprint(ax, parked["pose"], np.asarray(parked["footprint"]), "dimgray")
+    for i in range(episode.n_robots):
+        colour = _robot_colour(i)
+        if samples and (i, k) in episode.samples:
+            poses, _ = episode.samples[(i, k)]
+            for p in poses:
+                ax.plot(p[:, 0], p[:, 1], color="0.6", lw=0.4, alpha=0.5, zorder=1)
+        path = episode.states[i, :k + 1]
+        ax.plot(path[:, 0], path[:, 1], color=colour, lw=1.5, zorder=3)
+        if episode.plan_poses is not None and k < episode.n_cycles and episode.active[i, k]:
+            plan = episode.plan_poses[i, k]
+            ax.plot(plan[:, 0], plan[:, 1], color=colour, lw=1.0, ls="--", zorder=3)
+        _footprint(ax, episode.states[i, k, :3], episode.footprint(i), colour)
+        goal = episode.goals[i, k]
+        ax.plot(goal[0], goal[1], marker="x", color=colour, ms=7, mew=2, zorder=5)
+    _limits(episode, ax)
+    if title:
+        ax.set_title(f"{episode.meta['scenario']} ({episode.meta['variant']}), "
+                     f"t = {episode.times[k]:.1f} s", fontsize=9)
+
+
+def episode_figure(episode, *, cycle: int | None = None, path=None):
+    """The paper-style frame of an episode (default: its last state, every recorded sample)."""
+    fig, ax = plt.subplots(figsize=(7, 6))
+    k = episode.n_cycles if cycle is None else cycle
+    draw_cycle(ax, episode, k, samples=False)
+    for poses, _ in episode.samples.values():  # every recorded evaluation, grey
+        for p in poses:
+            ax.plot(p[:, 0], p[:, 1], color="0.7", lw=0.3, alpha=0.4, zorder=1)
+    if episode.plan_poses is not None:  # the optimum of every cycle, thin
+        for i in range(episode.n_robots):
+            for p in episode.plan_poses[i][episode.active[i]]:
+                ax.plot(p[:, 0], p[:, 1], color=_robot_colour(i), lw=0.3, alpha=0.3, zorder=1)
+    outcomes = ", ".join(f"{n}: {o}" for n, o in zip(episode.meta["robots"], episode.outcomes))
+    ax.set_xlabel(outcomes, fontsize=8)
+    return _finish(fig, path)
+
+
+def _finish(fig, path):
+    if path is None:
+        return fig
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def compare_figure(episodes: dict, *, path=None):
+    """Side by side: the final frame of each named episode (e.g. MPEPC vs DS-MPEPC)."""
+    n = len(episodes)
+    fig, axes = plt.subplots(1, n, figsize=(5.5 * n, 5), squeeze=False)
+    for ax, (name, episode) in zip(axes[0], episodes.items()):
+        draw_cycle(ax, episode, episode.n_cycles, samples=False, title=False)
+        outcomes = ", ".join(episode.outcomes)
+        ax.set_title(f"{name}: {outcomes}", fontsize=10)
+    fig.suptitle(next(iter(episodes.values())).meta["scenario"])
+    return _finish(fig, path)
+
+
+def cost_panels(state, world, goal, config, *, n_samples: int = 4096, n_best: int = 50,
+                seed: int = 0, path=None):
+    """The paper's Fig. 2 for one planning cycle, from a sampling evaluation of its state.
+
+    Panels: (a) a few sampled trajectories, (b) the ``n_best`` lowest-cost trajectories under
+    MPEPC, (c) the ``n_best`` with the lowest time to goal, (d) the ``n_best`` with the highest
+    terminal time to collision. ``config`` supplies everything but the two switches.
+    """
+    from .config import SolverConfig
+
+    mpepc = dataclasses.replace(config, anticipatory_pc=False, terminal_cost=False)
+    ds = dataclasses.replace(config, anticipatory_pc=True, terminal_cost=True)
+    solver = SolverConfig.sampling(n_samples=n_samples, seed=seed)
+    goal = np.asarray(goal, dtype=float)
+    starts = structured_starts(state, goal, config)
+    ev_mpepc = SamplingPlanner(mpepc, solver).search(state, world, goal, starts)
+    ev_ds = SamplingPlanner(ds, solver).search(state, world, goal, starts)
+    poses = ev_mpepc.trajectories.poses
+    finite = lambda a, fill: np.where(np.isfinite(a), a, fill)  # noqa: E731
+    panels = [
+        ("Sampled trajectories", np.arange(0, len(poses), max(1, len(poses) // 200))),
+        ("MPEPC cost: lowest", np.argsort(finite(ev_mpepc.costs.total, np.inf))[:n_best]),
+        ("Time to goal: lowest", np.argsort(finite(ev_ds.costs.ttg, np.inf))[:n_best]),
+        ("Terminal TTC: highest",
+         np.argsort(-np.nan_to_num(ev_ds.costs.ttc_terminal, posinf=1e9))[:n_best]),
+    ]
+    fig, axes = plt.subplots(1, 4, figsize=(16, 4.5))
+    reach = config.bounds.r_max
+    for ax, (title, index) in zip(axes, panels):
+        draw_map(ax, world.grid)
+        for obstacle in world.obstacles:
+            colour = "tab:red" if obstacle.kind == "pedestrian" else "dimgray"
+            for c, r in zip(obstacle.centers, obstacle.radii):
+                ax.add_patch(Circle(c, r, color=colour, alpha=0.8, zorder=3))
+        for p in poses[index]:
+            ax.plot(p[:, 0], p[:, 1], color="tab:blue" if "Sampled" not in title else "0.5",
+                    lw=0.6, alpha=0.6, zorder=2)
+        circles = np.asarray(config.robot.footprint)
+        _footprint(ax, state.pose, circles, "tab:blue")
+        ax.plot(*goal, marker="x", color="tab:green", ms=8, mew=2)
+        ax.set_xlim(state.x - reach, state.x + reach)
+        ax.set_ylim(state.y - reach, state.y + reach)
+        ax.set_aspect("equal")
+        ax.set_title(title, fontsize=10)
+    return _finish(fig, path)
+
+
+def animate(episode, path, *, fps: int | None = None, stride: int = 1):
+    """Write an animation of the episode: GIF (PillowWriter) or MP4 (needs ffmpeg on PATH).
+
+    Returns the path written. ``stride`` skips cycles; ``fps`` defaults to real time.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix == ".mp4":
+        if shutil.which("ffmpeg") is None:
+            raise RuntimeError("MP4 needs ffmpeg on PATH; write a .gif instead")
+        writer = animation.FFMpegWriter(fps=fps or round(1 / (episode.dt * stride)))
+    elif suffix == ".gif":
+        writer = animation.PillowWriter(fps=fps or round(1 / (episode.dt * stride)))
+    else:
+        raise ValueError(f"animation path {str(path)!r}: must end in .gif or .mp4")
+    frames = list(range(0, episode.n_cycles + 1, stride))
+    if frames[-1] != episode.n_cycles:
+        frames.append(episode.n_cycles)
+    fig, ax = plt.subplots(figsize=(6, 5))
+
+    def draw(k):
+        ax.clear()
+        draw_cycle(ax, episode, k)
+        return []
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
+    try:
+        anim = animation.FuncAnimation(fig, draw, frames=frames, blit=False)
+        anim.save(str(tmp), writer=writer)
+        tmp.replace(path)
+    finally:
+        plt.close(fig)
+        tmp.unlink(missing_ok=True)
+    return path
+
+
+def crosscheck_figure(gaps, *, label: str = "exact cost: NLP - sampling", path=None):
+    """Histogram of the per-cycle gaps of a cross-check (negative: the NLP found lower)."""
+    gaps = np.asarray(gaps, dtype=float)
+    finite = gaps[np.isfinite(gaps)]
+    fig, ax = plt.subplots(figsize=(6, 4))
+    if finite.size:
+        ax.hist(finite, bins=min(50, max(5, finite.size // 3)), color="tab:blue")
+    ax.axvline(0.0, color="k", lw=1)
+    ax.set_xlabel(label)
+    ax.set_ylabel("cycles")
+    ax.set_title(f"{finite.size} cycles, {np.sum(finite > 1e-6)} where the NLP is worse, "
+                 f"{gaps.size - finite.size} non-finite", fontsize=9)
+    return _finish(fig, path)

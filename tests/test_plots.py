@@ -1,0 +1,76 @@
+"""Figures and animations are views over episodes: they draw what was logged and close."""
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pytest
+
+from dsmpepc_nlp import plots
+from dsmpepc_nlp.config import PlannerConfig, RobotState, SolverConfig
+from dsmpepc_nlp.simulate import Agent, FixedGoal, Pedestrian, Scenario, simulate
+from dsmpepc_nlp.world import OccupancyGrid, World
+
+
+@pytest.fixture(scope="module")
+def episode():
+    occ = np.zeros((40, 60), bool)
+    occ[0, :] = occ[-1, :] = True
+    grid = OccupancyGrid(occ, 0.1)
+    scenario = Scenario("strip", (Agent("a", RobotState(0.5, 2.0, 0.0), FixedGoal((4.5, 2.0))),),
+                        grid=grid, pedestrians=(Pedestrian.constant((5.0, 3.0), (-0.3, 0.0)),),
+                        duration=1.6)
+    return simulate(scenario, PlannerConfig(), SolverConfig(method="sampling", n_samples=64),
+                    np.random.default_rng(0), record_samples=[0, 4], max_samples=20)
+
+
+def test_episode_figure_draws_map_pedestrians_path_and_samples(episode, tmp_path):
+    fig = plots.episode_figure(episode)
+    ax = fig.axes[0]
+    assert len(ax.images) == 1                                   # the map
+    red = [p for p in ax.patches if p.get_facecolor()[:3] == plt.matplotlib.colors.to_rgb(
+        "tab:red")]
+    assert len(red) == 1                                         # one pedestrian
+    # 2 recorded cycles x 20 samples in grey, plus the robot path
+    grey = [ln for ln in ax.lines if ln.get_color() == "0.7"]
+    assert len(grey) == 40
+    assert "a: timeout" in ax.get_xlabel()
+    path = plots.episode_figure(episode, path=tmp_path / "f" / "ep.png")
+    assert path.is_file() and path.stat().st_size > 1000
+    assert plt.get_fignums() == [fig.number]                    # the saved one was closed
+
+
+def test_cost_panels_show_fifty_of_each(episode):
+    state, world, goal = episode.planning_inputs(0)[0]
+    fig = plots.cost_panels(state, world, goal, episode.config(), n_samples=256, n_best=50)
+    assert [ax.get_title() for ax in fig.axes] == [
+        "Sampled trajectories", "MPEPC cost: lowest", "Time to goal: lowest",
+        "Terminal TTC: highest"]
+    for ax in fig.axes[1:]:
+        assert sum(ln.get_color() == "tab:blue" for ln in ax.lines) == 50
+
+
+def test_compare_figure_has_one_panel_per_variant(episode, tmp_path):
+    path = plots.compare_figure({"mpepc": episode, "ds-mpepc": episode},
+                                path=tmp_path / "c.png")
+    assert path.is_file()
+    fig = plots.compare_figure({"x": episode, "y": episode, "z": episode})
+    assert len(fig.axes) == 3 and fig.axes[0].get_title().startswith("x: ")
+
+
+def test_gif_animation_is_written_atomically(episode, tmp_path):
+    path = plots.animate(episode, tmp_path / "a.gif", stride=4)
+    assert path.read_bytes()[:6] in (b"GIF89a", b"GIF87a")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.gif"]
+    assert plt.get_fignums() == []
+    with pytest.raises(ValueError, match="gif or .mp4"):
+        plots.animate(episode, tmp_path / "a.avi")
+
+
+def test_crosscheck_histogram_counts_cycles(tmp_path):
+    fig = plots.crosscheck_figure([0.0, -0.1, 0.2, np.nan, 0.0])
+    assert "4 cycles, 1 where the NLP is worse, 1 non-finite" in fig.axes[0].get_title()
+
+
+def test_draw_map_without_grid_draws_nothing():
+    fig, ax = plt.subplots()
+    plots.draw_map(ax, World().grid)
+    assert len(ax.images) == 0
