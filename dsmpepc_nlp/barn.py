@@ -329,11 +329,12 @@ def summarise(rows) -> dict:
 
 
 def run_benchmark(settings: BarnSettings, worlds, out_dir, *, workers: int | None = None,
-                  resume=False, overwrite=False, progress=sys.stderr) -> tuple[list, dict]:
+                  resume=False, overwrite=False, progress=True) -> tuple[list, dict]:
     """Run ``worlds`` into ``out_dir/barn.{csv,json}`` (+ ``barn.png``); rows and summary.
 
     Worlds already in the table are skipped when ``resume`` is True.
     """
+    progress = sys.stderr if progress is True else progress or None
     table = ResultTable(out_dir, "barn", ("world", "variant", "solver"), settings.meta(),
                         resume=resume, overwrite=overwrite)
     todo = [w for w in worlds if not table.done((w, settings.variant, settings.solver))]

@@ -326,12 +326,13 @@ def summarise(rows) -> dict:
 
 
 def run_benchmark(settings: CrowdSettings, variants, episodes: int, seed: int, out_dir, *,
-                  workers=None, resume=False, overwrite=False, progress=sys.stderr) -> dict:
+                  workers=None, resume=False, overwrite=False, progress=True) -> dict:
     """Every (variant, episode) into ``out_dir/crowd.{json,csv}``; the summary.
 
     The summary has the first variant's figures at the top level (``episodes``,
     ``success_rate``, ``collision_rate``, ...) and every variant under ``variants``.
     """
+    progress = sys.stderr if progress is True else progress or None
     from .config import VARIANTS
 
     for v in variants:

@@ -36,6 +36,8 @@ GAIN_TURN = 2.0
 """Proportional gain from heading error to turn rate, 1/s (our choice)."""
 NEIGHBOR_DIST = 10.0
 """ORCA neighbour search distance, m (RVO2 examples use 15 at 1-2 m/s; our choice)."""
+PARKED = 1.0e6
+"""Where unused ORCA agent slots wait, m."""
 MAX_NEIGHBORS = 20
 """ORCA neighbours considered."""
 TIME_HORIZON = 3.0
@@ -130,6 +132,7 @@ class OrcaPlanner:
         self.config = PlannerConfig() if config is None else config
         self._grid = None
         self._sim = None
+        self._n_agents = 0
 
     def reset(self) -> None:
         """Nothing to forget (ORCA keeps no state between cycles)."""
@@ -148,29 +151,39 @@ class OrcaPlanner:
         robot = self.config.robot
         dt = self.config.horizon.dt
         if self._sim is None or world.grid is not self._grid:
-            # The obstacle tree is built once per map; agents are re-added every cycle.
+            # The obstacle tree is built once per map (the slow part); agents are reused.
             self._sim = self.pyrvo.RVOSimulator()
             self._sim.set_time_step(dt)
-            self._grid = world.grid
+            self._grid, self._n_agents = world.grid, 0
             polygons = grid_polygons(world.grid)
             for polygon in polygons:
                 self._sim.add_obstacle(polygon)
             if polygons:
                 self._sim.process_obstacles()
         sim = self._sim
-        sim.clear_agents()
         heading = (math.cos(state.phi), math.sin(state.phi))
-        me = sim.add_agent((state.x, state.y), NEIGHBOR_DIST, MAX_NEIGHBORS, TIME_HORIZON,
-                           TIME_HORIZON_OBST, robot.bounding_radius, robot.v_limit,
-                           (state.v * heading[0], state.v * heading[1]))
-        sim.set_agent_pref_velocity(me, tuple(self.preferred_velocity(state, goal)))
         centers, radii, velocities, _ = world.stacked_obstacles()
+        agents = [((state.x, state.y), robot.bounding_radius, robot.v_limit,
+                   (state.v * heading[0], state.v * heading[1]),
+                   tuple(self.preferred_velocity(state, goal)))]
         for c, r, v in zip(centers, radii, velocities):
-            speed = float(np.hypot(*v))
-            other = sim.add_agent((float(c[0]), float(c[1])), NEIGHBOR_DIST, MAX_NEIGHBORS,
-                                  TIME_HORIZON, TIME_HORIZON_OBST, float(r),
-                                  max(speed, 1e-3), (float(v[0]), float(v[1])))
-            sim.set_agent_pref_velocity(other, (float(v[0]), float(v[1])))
+            v = (float(v[0]), float(v[1]))
+            agents.append(((float(c[0]), float(c[1])), float(r),
+                           max(math.hypot(*v), 1e-3), v, v))
+        while self._n_agents < len(agents):
+            sim.add_agent((PARKED, PARKED), NEIGHBOR_DIST, MAX_NEIGHBORS, TIME_HORIZON,
+                          TIME_HORIZON_OBST, 0.01, 0.0, (0.0, 0.0))
+            self._n_agents += 1
+        for k in range(self._n_agents):
+            # Unused slots wait far away, spread out so they never meet each other.
+            position, radius, max_speed, velocity, preferred = agents[k] if k < len(agents) \
+                else ((PARKED + 10.0 * k, PARKED), 0.01, 0.0, (0.0, 0.0), (0.0, 0.0))
+            sim.set_agent_position(k, position)
+            sim.set_agent_radius(k, radius)
+            sim.set_agent_max_speed(k, max_speed)
+            sim.set_agent_velocity(k, velocity)
+            sim.set_agent_pref_velocity(k, preferred)
+        me = 0
         sim.do_step()
         u = sim.get_agent_velocity(me)
         return np.array([u.x, u.y], dtype=float)

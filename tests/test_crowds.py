@@ -1,0 +1,92 @@
+"""ETH/UCY loader, crossing scenarios and the crowd benchmark on tiny recordings."""
+
+import json
+
+import numpy as np
+import pytest
+
+from dsmpepc_nlp import bench_cli, crowds
+
+
+def write_recording(path, n_steps=150, first_frame=0):
+    """Four pedestrians: three walk across all along, one enters at step 25 and walks up."""
+    lines = []
+    for k in range(n_steps):
+        frame = first_frame + 10 * k
+        t = 0.4 * k
+        lines.append(f"{frame}\t1.0\t{0.5 + 0.8 * t % 10:.3f}\t2.0")
+        lines.append(f"{frame}.0\t2.0\t{9.5 - 0.8 * t % 10:.3f}\t6.0")
+        lines.append(f"{frame}\t4.0\t{2.0 + 0.1 * t:.3f}\t10.0")
+        if 25 <= k < 60:
+            lines.append(f"{frame}\t3.0\t5.0\t{0.4 * (k - 25):.3f}")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_loader_reads_floats_and_times(tmp_path):
+    rec = crowds.load_recording(write_recording(tmp_path / "zara" / "test" / "toy.txt"))
+    assert rec.frame.dtype == np.int64 and rec.step_time == 0.4
+    assert rec.span == (0.0, pytest.approx(0.4 * 149))
+    assert set(rec.ped.tolist()) == {1, 2, 3, 4}
+    eth = crowds.load_recording(write_recording(tmp_path / "biwi_eth.txt"))
+    assert eth.step_time == 0.8  # FORMAT.md's eth caveat: time rescaled
+
+
+@pytest.mark.parametrize("text, problem", [
+    ("0\t1\t2.0\n", "line 1.*4 tab-separated"), ("0\t1\t2\tx\n", "line 1"),
+    ("0\t1\t2\t3\n0\t1\t2\t3\n", "duplicate"), ("", "no rows")])
+def test_loader_errors_name_the_file(tmp_path, text, problem):
+    path = tmp_path / "bad.txt"
+    path.write_text(text)
+    with pytest.raises(ValueError, match=f"bad.txt.*{problem}"):
+        crowds.load_recording(path)
+    with pytest.raises(ValueError, match="missing.txt.*does not exist"):
+        crowds.load_recording(tmp_path / "missing.txt")
+
+
+def test_crossing_is_seeded_clear_and_pedestrians_appear_on_time(tmp_path):
+    rec = crowds.load_recording(write_recording(tmp_path / "toy.txt"))
+    a, draw_a = crowds.crossing_scenario(rec, np.random.default_rng(3), duration=20.0)
+    b, draw_b = crowds.crossing_scenario(rec, np.random.default_rng(3), duration=20.0)
+    assert draw_a == draw_b
+    start = a.agents[0].start
+    goal = np.array(a.agents[0].goal.position)
+    assert 4.0 <= np.hypot(goal[0] - start.x, goal[1] - start.y) <= 8.5
+    for p in a.pedestrians:
+        gap = np.hypot(*(p.position(0.0) - (start.x, start.y))) - 0.6
+        assert gap >= 0.5
+    # the walker that enters late is off stage before its first waypoint
+    late = crowds._tracks(rec, 0.0, 30.0, 0.1)[2]
+    assert np.allclose(late.position(0.0), crowds.OFFSTAGE)
+    assert np.allclose(late.position(10.1), (5.0, 0.0))
+    assert np.allclose(late.velocity_at(10.2), (0.0, 1.0))
+    assert np.all(np.abs(late.velocity_at(t)) < 2 for t in np.arange(0, 30, 0.2))
+
+
+def test_too_short_recording_is_an_error(tmp_path):
+    rec = crowds.load_recording(write_recording(tmp_path / "toy.txt", n_steps=10))
+    with pytest.raises(ValueError, match="shorter"):
+        crowds.crossing_scenario(rec, np.random.default_rng(0), duration=30.0)
+
+
+def test_benchmark_two_variants_and_resume(tmp_path, capsys):
+    write_recording(tmp_path / "data" / "toy" / "test" / "toy.txt")
+    argv = ["benchmark", "crowd", "--data", str(tmp_path / "data"), "--scene", "toy",
+            "--episodes", "2", "--variants", "ds-mpepc", "orca", "--solver", "sampling",
+            "--samples", "32", "--duration", "8", "--workers", "1",
+            "--out", str(tmp_path / "out"), "--json"]
+    assert bench_cli.main(argv) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["episodes"] == 2 and "collision_rate" in summary
+    assert set(summary["variants"]) == {"ds-mpepc", "orca"}
+    assert bench_cli.main(argv + ["--resume", "--episodes", "3"]) == 0
+    captured = capsys.readouterr()
+    assert "4 runs already done, 2 to run" in captured.err
+    assert json.loads(captured.out)["episodes"] == 3
+
+
+def test_unknown_scene_is_an_error(tmp_path, capsys):
+    assert bench_cli.main(["benchmark", "crowd", "--data", str(tmp_path), "--scene", "nope",
+                           "--out", str(tmp_path / "o")]) == 2
+    assert "nope" in capsys.readouterr().err

@@ -1,0 +1,79 @@
+"""Result tables: atomic writes, resume skipping done rows, strict JSON, index ranges."""
+
+import json
+import os
+
+import pytest
+
+from dsmpepc_nlp import results
+from dsmpepc_nlp.results import ResultTable, atomic_write_text, parse_indices
+
+
+def test_atomic_write_leaves_old_file_and_no_temp_on_error(tmp_path, monkeypatch):
+    path = tmp_path / "table.json"
+    atomic_write_text(path, "old")
+
+    def broken(src, dst):
+        raise OSError("disk gone")
+
+    monkeypatch.setattr(os, "replace", broken)
+    with pytest.raises(OSError):
+        atomic_write_text(path, "new")
+    assert path.read_text() == "old"
+    assert [p.name for p in tmp_path.iterdir()] == ["table.json"]
+
+
+def test_table_add_that_fails_to_serialise_leaves_no_partial_file(tmp_path):
+    table = ResultTable(tmp_path, "t", ("k",))
+    table.add({"k": 1, "v": 1.0})
+    before = (tmp_path / "t.json").read_text()
+    with pytest.raises(TypeError):
+        table.add({"k": 2, "v": object()})
+    assert (tmp_path / "t.json").read_text() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.csv", "t.json"]
+
+
+def test_resume_keeps_rows_and_skips_done_keys(tmp_path):
+    table = ResultTable(tmp_path, "t", ("world", "variant"), {"a": 1})
+    table.add({"world": 0, "variant": "x", "score": float("nan")})
+    table.add({"world": 1, "variant": "x", "score": 0.25})
+    data = json.loads((tmp_path / "t.json").read_text())
+    assert data["rows"][0]["score"] is None  # strict JSON: NaN -> null
+    again = ResultTable(tmp_path, "t", ("world", "variant"), {"a": 1}, resume=True)
+    assert again.done((0, "x")) and again.done({"world": 1.0, "variant": "x"})
+    assert not again.done((2, "x"))
+    assert len(again.rows) == 2
+    csv_lines = (tmp_path / "t.csv").read_text().splitlines()
+    assert csv_lines[0] == "world,variant,score" and len(csv_lines) == 3
+
+
+def test_existing_table_needs_resume_or_overwrite_and_same_settings(tmp_path):
+    ResultTable(tmp_path, "t", ("k",), {"a": 1}).add({"k": 0})
+    with pytest.raises(FileExistsError, match="--resume"):
+        ResultTable(tmp_path, "t", ("k",), {"a": 1})
+    with pytest.raises(ValueError, match="other settings .*a"):
+        ResultTable(tmp_path, "t", ("k",), {"a": 2}, resume=True)
+    assert ResultTable(tmp_path, "t", ("k",), {"a": 2}, overwrite=True).rows == []
+
+
+def test_unreadable_table_on_resume_names_the_file(tmp_path):
+    (tmp_path / "t.json").write_text("{not json")
+    with pytest.raises(ValueError, match="t.json"):
+        ResultTable(tmp_path, "t", ("k",), resume=True)
+
+
+def test_parse_indices():
+    assert parse_indices("0-3,7") == [0, 1, 2, 3, 7]
+    assert parse_indices("0-299:6")[:3] == [0, 6, 12] and len(parse_indices("0-299:6")) == 50
+    for bad in ("3-1", "a", "1-2:0"):
+        with pytest.raises(ValueError, match="must be"):
+            parse_indices(bad)
+    with pytest.raises(ValueError, match="no index"):
+        parse_indices(",")
+
+
+def test_json_clean_handles_numpy():
+    import numpy as np
+
+    assert results.json_clean({"a": np.float64("inf"), "b": [np.int64(3)]}) == {"a": None,
+                                                                                "b": [3]}
