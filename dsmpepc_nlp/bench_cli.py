@@ -42,7 +42,8 @@ def register(subparsers) -> None:
     from .barn import DEFAULT_RESOLUTION, DEFAULT_V_LIMIT, TIME_LIMIT
 
     bench = subparsers.add_parser("benchmark", help="run a public benchmark",
-                                  description="Run BARN worlds or ETH/UCY crowd crossings.")
+                                  description="Run BARN worlds, ETH/UCY crowd crossings or "
+                                  "planner variants side by side on YAML scenarios.")
     kinds = bench.add_subparsers(dest="benchmark", required=True)
 
     barn = kinds.add_parser("barn", help="BARN Challenge worlds (static clutter, Jackal)")
@@ -71,6 +72,17 @@ def register(subparsers) -> None:
     _common(crowd, "results/crowd")
     crowd.set_defaults(run=_run_crowd, command_main=execute)
 
+    scen = kinds.add_parser("scenarios", help="planner variants (and ORCA) on YAML scenarios")
+    scen.add_argument("--scenarios", required=True,
+                      help="comma-separated scenario names (scenarios/*.yaml) or YAML paths")
+    scen.add_argument("--variants", nargs="+", default=["mpepc", "ds-mpepc", "orca"])
+    scen.add_argument("--seeds", default="0", help="seeds: 0-4, 0,5,7 (default 0)")
+    scen.add_argument("--start-noise", type=float, default=None,
+                      help="start-position noise, m (std), replacing the scenarios' own")
+    scen.add_argument("--scheduler", default=None, help="address of a Dask scheduler")
+    _common(scen, "results/scenarios")
+    scen.set_defaults(run=_run_scenarios, command_main=execute)
+
     sweep = subparsers.add_parser("sweep", help="grid of cost parameters x scenarios x seeds",
                                   description="Run a parameter grid; tables and heatmaps.")
     sweep.add_argument("--param", action="append", default=[], metavar="NAME=V1,V2,...",
@@ -80,6 +92,9 @@ def register(subparsers) -> None:
     sweep.add_argument("--seeds", default="0", help="seeds: 0-2, 0,5,7 (default 0)")
     sweep.add_argument("--variant", default="ds-mpepc",
                        choices=("mpepc", "ds-mpepc", "pc-only", "terminal-only"))
+    sweep.add_argument("--start-noise", type=float, default=None,
+                       help="start-position noise, m (std), replacing the scenarios' own so "
+                            "that seeds differ (default: the scenario's)")
     sweep.add_argument("--scheduler", default=None,
                        help="address of a Dask scheduler (tcp://host:8786); default: processes")
     _common(sweep, "results/sweep")
@@ -118,10 +133,22 @@ def _run_sweep(args) -> dict:
 
     params = parse_params(args.param)
     scenarios = [s for s in args.scenarios.split(",") if s]
-    settings = SweepSettings(variant=args.variant, solver=args.solver, n_samples=args.samples)
+    settings = SweepSettings(variant=args.variant, solver=args.solver, n_samples=args.samples,
+                             start_noise=args.start_noise)
     return run_sweep(params, scenarios, parse_indices(args.seeds, "--seeds"), settings,
                      args.out, workers=args.workers, scheduler=args.scheduler,
                      resume=args.resume, overwrite=args.overwrite)
+
+
+def _run_scenarios(args) -> dict:
+    from .sweep import SweepSettings, run_scenarios
+
+    settings = SweepSettings(solver=args.solver, n_samples=args.samples,
+                             start_noise=args.start_noise)
+    return run_scenarios(args.variants, [s for s in args.scenarios.split(",") if s],
+                         parse_indices(args.seeds, "--seeds"), settings, args.out,
+                         workers=args.workers, scheduler=args.scheduler, resume=args.resume,
+                         overwrite=args.overwrite)
 
 
 def _print_summary(summary: dict, as_json: bool) -> None:

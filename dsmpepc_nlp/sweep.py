@@ -100,10 +100,13 @@ class SweepSettings:
     n_samples: int | None = None
     duration: float | None = None
     """Cap on every scenario's duration, s (None: the scenario's own)."""
+    start_noise: float | None = None
+    """Start-position noise (m, std) replacing the scenario's own, so seeds differ (None: keep)."""
 
     def meta(self) -> dict:
         return {"benchmark": "sweep", "variant": self.variant, "solver": self.solver,
-                "n_samples": self.n_samples, "duration": self.duration}
+                "n_samples": self.n_samples, "duration": self.duration,
+                "start_noise": self.start_noise}
 
 
 def _key_text(params: dict) -> str:
@@ -114,22 +117,32 @@ def run_one(run: dict, settings: SweepSettings) -> dict:
     """One run; its row. Exceptions become ``status = "failed"`` with the message."""
     row = {"key": _key_text(run["params"]), **{k: float(v) for k, v in run["params"].items()},
            "scenario": run["scenario"], "seed": run["seed"]}
+    if "variant" in run:
+        row["variant"] = run["variant"]
     started = time.perf_counter()
     try:
         from .metrics import episode_metrics
         from .scenario import load_scenario
         from .simulate import simulate
 
-        config = configure(run["params"], settings.variant)
+        variant = run.get("variant", settings.variant)
+        config = configure(run["params"], "ds-mpepc" if variant == "orca" else variant)
         scenario = load_scenario(run["scenario"])
         if settings.duration is not None:
             scenario = dataclasses.replace(scenario,
                                            duration=min(scenario.duration, settings.duration))
+        if settings.start_noise is not None:
+            scenario = dataclasses.replace(scenario, start_noise=settings.start_noise)
         solver = SolverConfig.named(settings.solver)
         if settings.n_samples:
             solver = dataclasses.replace(solver, n_samples=settings.n_samples)
-        episode = simulate(scenario, config, solver, np.random.default_rng(run["seed"]),
-                           record_trajectories=False)
+        rng = np.random.default_rng(run["seed"])
+        if variant == "orca":
+            from .orca import simulate_orca
+
+            episode = simulate_orca(scenario, config, rng, record_trajectories=False)
+        else:
+            episode = simulate(scenario, config, solver, rng, record_trajectories=False)
         metrics = episode_metrics(episode)
         outcomes = [m["outcome"] for m in metrics]
         n = len(outcomes)
@@ -198,6 +211,17 @@ def _run_dask(tasks, scheduler):
             yield future.result()
 
 
+def _execute(todo, table, bar, workers, scheduler) -> None:
+    if not todo:
+        return
+    results = _run_dask(todo, scheduler) if scheduler else _run_processes(
+        todo, max(1, min(workers or os.cpu_count() or 1, len(todo))))
+    for row in results:
+        table.add(row)
+        bar.update(f"{Path(row['scenario']).stem} seed {row['seed']}: "
+                   f"{row.get('outcomes', row['status'])}")
+
+
 def run_sweep(params: dict, scenarios, seeds, settings: SweepSettings, out_dir, *,
               workers=None, scheduler=None, resume=False, overwrite=False,
               progress=True) -> dict:
@@ -223,13 +247,7 @@ def run_sweep(params: dict, scenarios, seeds, settings: SweepSettings, out_dir, 
             f"{max(1, min(workers or os.cpu_count() or 1, len(todo) or 1))} process(es)"
         print(f"sweep: {len(runs)} runs, {len(runs) - len(todo)} already done, "
               f"{len(todo)} on {where}", file=progress, flush=True)
-    if todo:
-        results = _run_dask(todo, scheduler) if scheduler else _run_processes(
-            todo, max(1, min(workers or os.cpu_count() or 1, len(todo))))
-        for row in results:
-            table.add(row)
-            bar.update(f"{row['scenario']} seed {row['seed']}: "
-                       f"{row.get('outcomes', row['status'])}")
+    _execute(todo, table, bar, workers, scheduler)
     keys = {(_key_text(r["params"]), r["scenario"], r["seed"]) for r in runs}
     rows = [r for r in table.rows if (r["key"], r["scenario"], r["seed"]) in keys]
     figures = plot_heatmaps(rows, list(params), Path(out_dir))
@@ -293,3 +311,60 @@ def plot_heatmaps(rows, names, out_dir) -> list:
         finally:
             plt.close(fig)
     return paths
+
+
+def run_scenarios(variants, scenarios, seeds, settings: SweepSettings, out_dir, *,
+                  workers=None, scheduler=None, resume=False, overwrite=False,
+                  progress=True) -> dict:
+    """Planner variants (``orca`` included) side by side on scenarios x seeds.
+
+    The table is ``scenarios.{json,csv}`` keyed by (variant, scenario, seed); the summary has,
+    per variant and scenario, the rates over seeds and robots.
+    """
+    from .config import VARIANTS
+    from .scenario import load_scenario
+
+    progress = sys.stderr if progress is True else progress or None
+    for v in variants:
+        if v != "orca" and v not in VARIANTS:
+            raise ValueError(f"--variants: {v!r}: must be orca or one of {', '.join(VARIANTS)}")
+    if "orca" in variants:
+        from .orca import require_pyrvo
+
+        require_pyrvo()
+    for name in scenarios:
+        load_scenario(name)
+    meta = dict(settings.meta(), benchmark="scenarios")
+    meta.pop("variant")
+    table = ResultTable(out_dir, "scenarios", ("variant", "scenario", "seed"), meta,
+                        resume=resume, overwrite=overwrite)
+    runs = [{"params": {}, "variant": v, "scenario": s, "seed": int(k)}
+            for v in variants for s in scenarios for k in seeds]
+    todo = [(r, settings) for r in runs if not table.done((r["variant"], r["scenario"],
+                                                          r["seed"]))]
+    if progress:
+        print(f"scenarios: {len(runs)} runs, {len(runs) - len(todo)} already done",
+              file=progress, flush=True)
+    _execute(todo, table, ProgressBar(len(todo), progress), workers, scheduler)
+    summary: dict = {"runs": len(runs), "variants": {}}
+    for v in variants:
+        per = {}
+        for name in scenarios:
+            rows = [r for r in table.rows if r["variant"] == v and r["scenario"] == name
+                    and r["seed"] in set(int(k) for k in seeds)]
+            ok = [r for r in rows if r["status"] == "ok"]
+
+            def mean(key, rows=ok):
+                values = [r[key] for r in rows if r.get(key) is not None]
+                return float(np.mean(values)) if values else math.nan
+
+            per[Path(name).stem] = {
+                "runs": len(rows), "failed": len(rows) - len(ok),
+                **{k: mean(k) for k in ("success_rate", "collision_rate", "deadlock_rate",
+                                        "timeout_rate", "time_to_goal")},
+                "min_dynamic_clearance": min((r["min_dynamic_clearance"] for r in ok
+                                              if r.get("min_dynamic_clearance") is not None),
+                                             default=math.nan)}
+        summary["variants"][v] = per
+    summary["table"] = str(table.csv_path)
+    return summary

@@ -107,3 +107,22 @@ def test_dask_local_cluster(tmp_path, tiny):
     rows_local = {r["key"]: r["outcomes"] for r in
                   json.loads((tmp_path / "proc" / "sweep.json").read_text())["rows"]}
     assert rows == rows_local and local["runs"] == 2
+
+
+def test_start_noise_makes_seeds_differ_reproducibly(tiny):
+    settings = sweep.SweepSettings(solver="sampling", n_samples=16, start_noise=0.2)
+    rows = [sweep.run_one({"params": {}, "scenario": tiny, "seed": k}, settings)
+            for k in (0, 1, 0)]
+    assert rows[0]["path_length"] == rows[2]["path_length"] != rows[1]["path_length"]
+
+
+def test_variants_side_by_side_with_orca(tmp_path, tiny, capsys):
+    pytest.importorskip("pyrvo")
+    argv = ["benchmark", "scenarios", "--scenarios", tiny, "--variants", "mpepc", "orca",
+            "--seeds", "0-1", "--solver", "sampling", "--samples", "16", "--workers", "1",
+            "--out", str(tmp_path / "s"), "--json"]
+    assert bench_cli.main(argv) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["runs"] == 4
+    assert summary["variants"]["orca"]["tiny"]["runs"] == 2
+    assert summary["variants"]["orca"]["tiny"]["failed"] == 0
