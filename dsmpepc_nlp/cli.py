@@ -258,38 +258,99 @@ def _nonnegative(value: str) -> int:
 
 
 def _add_optional_commands(sub, common) -> None:
-    """``crosscheck`` and ``bench``: wired to the NLP's verification modules when present."""
+    """``crosscheck`` and ``bench`` (the NLP's verification), and the benchmark commands of
+    ``bench_cli`` when that module is present."""
+    p = sub.add_parser("crosscheck", help="NLP vs sampling (exact costs) on every cycle of an "
+                       "episode of SCENARIO (first robot; the episode is driven by the sampler)")
+    common(p)
+    p.add_argument("--n-samples", type=_positive, default=4096,
+                   help="samples of the reference sampling planner")
+    p.add_argument("--tol", type=float, default=0.01, help="gap counted as 'as good'")
+    p.set_defaults(func=cmd_crosscheck)
+    p = sub.add_parser("bench", help="time the NLP and the sampler on the crowded demo scene")
+    p.add_argument("--cycles", type=_positive, default=20, help="planning cycles to time")
+    p.add_argument("--seed", type=_seed, default=0)
+    p.add_argument("--json", action="store_true", help="print JSON on stdout")
+    p.set_defaults(func=cmd_bench)
     try:
-        from . import crosscheck  # noqa: F401
+        from . import bench_cli
     except ImportError:
-        pass
+        return
+    bench_cli.register(sub)
+
+
+def _positive(value: str) -> int:
+    number = _seed(value)
+    if number < 1:
+        raise argparse.ArgumentTypeError(f"{number}: must be >= 1")
+    return number
+
+
+def cmd_crosscheck(args) -> int:
+    from . import plots
+    from .crosscheck import crosscheck
+    from .scenario import load_scenario
+    from .simulate import simulate
+
+    if args.solver == "sampling":
+        raise UsageError("crosscheck --solver: must be nlp or fast (sampling is the reference)")
+    scenario = load_scenario(args.scenario)
+    config = PlannerConfig.variant(args.variant)
+    solver = _solver(args.solver)
+    progress = Progress(f"{scenario.name} {args.variant} episode (sampling)")
+    episode = simulate(scenario, config, SolverConfig.sampling(), np.random.default_rng(args.seed),
+                       record_trajectories=False, progress=progress)
+    progress.done(", ".join(episode.outcomes))
+    cycles = episode.planning_inputs(0)
+    robot_config = episode.config()
+    if scenario.agents[0].robot is not None:
+        import dataclasses
+
+        robot_config = dataclasses.replace(robot_config, robot=scenario.agents[0].robot)
+    print(f"[crosscheck] {len(cycles)} cycles, {args.solver} vs sampling "
+          f"({args.n_samples} samples)", file=sys.stderr)
+    started = time.perf_counter()
+    result = crosscheck(cycles, robot_config, solver, n_samples=args.n_samples, tol=args.tol)
+    out = Path(args.out)
+    stem = f"{scenario.name}-{args.variant}-crosscheck-{args.solver}-seed{args.seed}"
+    figure = plots.crosscheck_figure(result.gap, path=out / f"{stem}.png")
+    summary = dict(result.to_dict(), scenario=scenario.name, variant=args.variant,
+                   solver=args.solver, seed=args.seed, wall_time=time.perf_counter() - started,
+                   statuses={s: result.nlp_status.count(s) for s in set(result.nlp_status)},
+                   figure=str(figure))
+    if args.json:
+        from .metrics import json_safe
+
+        print(json.dumps(json_safe(summary), allow_nan=False))
+        return 0
+    print(f"{summary['cycles']} cycles: gap (NLP - sampling) median "
+          f"{_fmt(summary['gap_median'], 4)}"
+          f", p95 {_fmt(summary['gap_p95'], 4)}, within {args.tol}: "
+          f"{100 * summary['share_within_tol']:.0f}%; NLP plan statuses {summary['statuses']}")
+    print(f"figure: {figure}")
+    return 0
+
+
+def cmd_bench(args) -> int:
+    from .benchmark import run_bench
+    from .metrics import json_safe
+
+    _solver("nlp")
+    print(f"[bench] timing {args.cycles} cycles of the crowded demo scene", file=sys.stderr)
+    result = run_bench(n_cycles=args.cycles, seed=args.seed)
+    if args.json:
+        print(json.dumps(json_safe(result), allow_nan=False))
     else:
-        p = sub.add_parser("crosscheck", help="NLP vs sampling on every cycle of an episode")
-        common(p)
-        p.set_defaults(func=cmd_crosscheck)
-    try:
-        from . import benchmark  # noqa: F401
-    except ImportError:
-        pass
-    else:
-        p = sub.add_parser("bench", help="planner timing benchmark")
-        p.add_argument("--json", action="store_true", help="print JSON on stdout")
-        p.add_argument("--out", default="out", help="folder for results")
-        p.set_defaults(func=cmd_bench)
-
-
-def cmd_crosscheck(args) -> int:  # pragma: no cover - wired when crosscheck.py exists
-    raise UsageError("crosscheck: not wired yet")
-
-
-def cmd_bench(args) -> int:  # pragma: no cover - wired when benchmark.py exists
-    raise UsageError("bench: not wired yet")
+        print(result["table"])
+    return 0
 
 
 def main(argv=None) -> int:
     """Entry point of ``dsmpepc``; returns the exit status (0, or 2 for bad input)."""
     try:
         args = build_parser().parse_args(argv)
+        if hasattr(args, "command_main"):  # bench_cli's subcommands handle their own errors
+            return args.command_main(args)
         return args.func(args)
     except InputError as exc:
         print(f"dsmpepc: error: {exc}".replace("\n", " "), file=sys.stderr)

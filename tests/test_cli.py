@@ -93,6 +93,8 @@ def test_compare_human_prints_a_table(tiny, tmp_path, capsys):
     (["compare", "t-corridor", "--variants", "mpepc", "nope"], "nope"),
     (["compare", "t-corridor", "--variants", "mpepc", "mpepc"], "repeats"),
     (["frobnicate"], "invalid choice"),
+    (["crosscheck", "t-corridor", "--solver", "sampling"], "must be nlp or fast"),
+    (["bench", "--cycles", "0"], "--cycles"),
     ([], "required"),
 ])
 def test_bad_input_exits_2_with_one_line(argv, words, capsys):

@@ -1,0 +1,48 @@
+"""The paper's claims on the built-in scenarios (slow: closed-loop runs of whole scenarios).
+
+Identical parameters except the two DS-MPEPC switches (``PlannerConfig.variant``). The solver
+is ``nlp`` (IPOPT) unless the environment variable ``DSMPEPC_CLAIMS_SOLVER`` names another
+(``sampling``, ``fast``). Seed 0 throughout. Each test asserts the paper's claim as stated.
+"""
+
+import os
+
+import numpy as np
+import pytest
+
+from dsmpepc_nlp.config import PlannerConfig, SolverConfig
+from dsmpepc_nlp.scenario import load_scenario
+from dsmpepc_nlp.simulate import simulate
+
+pytestmark = pytest.mark.slow
+
+SOLVER = os.environ.get("DSMPEPC_CLAIMS_SOLVER", "nlp")
+
+
+def run(name, variant):
+    episode = simulate(load_scenario(name), PlannerConfig.variant(variant),
+                       SolverConfig.named(SOLVER), np.random.default_rng(0))
+    print(f"{name} {variant} {SOLVER}: {episode.outcomes} at {episode.outcome_times}")
+    return episode
+
+
+@pytest.mark.parametrize("name", ["t-corridor", "narrow-corridor"])
+def test_mpepc_deadlocks_where_ds_mpepc_succeeds(name):
+    """Paper Figs. 4 and 5: MPEPC deadlocks, DS-MPEPC reaches the goal."""
+    mpepc, ds = run(name, "mpepc"), run(name, "ds-mpepc")
+    assert "deadlock" in mpepc.outcomes, f"MPEPC: {mpepc.outcomes}"
+    assert ds.outcomes == ["success"] * ds.n_robots, f"DS-MPEPC: {ds.outcomes}"
+
+
+@pytest.mark.parametrize("name", ["circle-4", "circle-10"])
+def test_ds_mpepc_brings_every_circle_agent_home(name):
+    """Paper Figs. 6 and 7: every agent reaches its antipodal goal without collision."""
+    ds = run(name, "ds-mpepc")
+    assert ds.outcomes == ["success"] * ds.n_robots, ds.outcomes
+
+
+@pytest.mark.parametrize("name", ["hall", "l-corridor"])
+def test_following_a_pedestrian_ends_without_collision(name):
+    """Paper Figs. 1-3: the robot follows its pedestrian without a collision."""
+    ds = run(name, "ds-mpepc")
+    assert "collision" not in ds.outcomes, ds.outcomes
