@@ -62,9 +62,13 @@ def disk_inverse_ttc(px, py, wx, wy, radius, smoothing=EXACT, ops=NUMPY):
             inv = hit * num / ops.fmax(c, 1e-300)
         return ops.where(c <= 0, np.inf, inv)
     tau = smoothing.distance
+    # sqrt(max(x, 0)) has an infinite slope at 0 whose product with max's zero slope is NaN
+    # in automatic differentiation; a floor of tau^2 * 1e-12 keeps it finite and negligible.
+    floor = tau * tau * 1e-12
+    num = relu(-b, 0.0, ops) + ops.sqrt(relu(disc, 0.0, ops) + floor * (a + floor))
     dist = ops.sqrt(px * px + py * py + tau * tau)
     approach = -b / dist                                    # closing speed, m/s
-    miss = ops.sqrt(relu(px * px + py * py - b * b / (a + tau * tau), 0.0, ops))  # m
+    miss = ops.sqrt(relu(px * px + py * py - b * b / (a + tau * tau), 0.0, ops) + floor)  # m
     gate = _sigmoid(approach / tau, ops) * _sigmoid((radius - miss) / tau, ops)
     return gate * num / smax(c, tau * radius, tau * radius, ops)
 
