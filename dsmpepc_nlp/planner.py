@@ -12,6 +12,7 @@ import numpy as np
 from .config import PlannerConfig, RobotState, SolverConfig
 from .control_law import Trajectory, rollout, z_from_target
 from .costs import TERM_NAMES, CostBreakdown
+from .errors import InputError
 from .sampling import Evaluation, SamplingPlanner, clip_to_bounds, evaluate_batch, structured_starts
 
 STATUSES = ("nlp", "sampling", "sampling-fallback", "docked", "stopped")
@@ -142,29 +143,35 @@ class Planner:
         started = time.perf_counter()
         goal = np.asarray(goal, dtype=float)
         if goal.shape != (2,) or not np.all(np.isfinite(goal)):
-            raise ValueError(f"goal = {goal!r}: must be a finite (x, y) pair")
+            raise InputError(f"goal = {goal!r}: must be a finite (x, y) pair")
         starts = structured_starts(state, goal, self.config, self._previous_target)
-        plan = None
+        plan, evaluated, records, trouble = None, None, (), ""
         if dock:
             plan = self._dock(state, world, goal)
-        evaluated = None
         if plan is None and self.nlp is not None:
-            records = self._verify(self.nlp.solve(state, world, goal, starts), state, world, goal)
-            if sample:
-                evaluated = self.sampler.search(state, world, goal, starts)
-            plan = self._choose_nlp(records, state, world, goal, evaluated)
+            try:
+                records = self._verify(self.nlp.solve(state, world, goal, starts), state, world,
+                                       goal)
+                if sample:
+                    evaluated = self.sampler.search(state, world, goal, starts)
+                plan = self._choose_nlp(records, state, world, goal)
+            except Exception as error:  # noqa: BLE001 - a solver crash must not stop planning
+                trouble = f"the NLP raised {type(error).__name__}: {error}; "
         if plan is None:
-            evaluated = evaluated or self.sampler.search(state, world, goal, starts)
-            fallback = self.nlp is not None
-            plan = self._from_evaluation(evaluated, state, fallback=fallback,
-                                         records=self._records)
+            try:
+                evaluated = evaluated or self.sampler.search(state, world, goal, starts)
+                plan = self._from_evaluation(evaluated, state, fallback=self.nlp is not None,
+                                             records=records)
+            except Exception as error:  # noqa: BLE001 - the last resort is to stop, not crash
+                trouble += f"the sampler raised {type(error).__name__}: {error}; "
+                plan = self._stop(state, records)
+        if trouble:
+            plan = _replace(plan, message=trouble + plan.message, success=False)
         plan = _replace(plan, wall_time=time.perf_counter() - started, evaluated=evaluated)
         self._previous_target = (plan.trajectory.target, float(plan.x[3]))
         return plan
 
     # -- the pieces of plan() ---------------------------------------------------------------
-
-    _records: tuple = ()
 
     def _dock(self, state, world, goal) -> Plan | None:
         docking = self.config.docking
@@ -186,11 +193,9 @@ class Planner:
         if finite:
             ev = evaluate_batch(np.array([r.z for r in finite]), state, world, goal, self.config)
             costs = {id(r): float(c) for r, c in zip(finite, ev.costs.total)}
-        self._records = tuple(_replace(r, exact_cost=costs.get(id(r), math.nan))
-                              for r in records)
-        return self._records
+        return tuple(_replace(r, exact_cost=costs.get(id(r), math.nan)) for r in records)
 
-    def _choose_nlp(self, records, state, world, goal, evaluated) -> Plan | None:
+    def _choose_nlp(self, records, state, world, goal) -> Plan | None:
         usable = [r for r in records if math.isfinite(r.exact_cost)]
         if not any(r.success for r in usable):
             return None
@@ -212,13 +217,17 @@ class Planner:
                                f"best of {len(evaluated.z)} sampled trajectories", 0, ())
 
     def _stop(self, state, records) -> Plan:
-        """Nothing finite: the stop trajectory (v_max = 0), finite by construction."""
+        """Nothing finite: the stop trajectory (v_max = 0), finite by construction.
+
+        Its cost is reported as ``inf``: nothing could be measured, and a plan is never NaN.
+        """
         z = clip_to_bounds(np.array([1.0, 0.0, 0.0, 0.0]), self.config)
         trajectory = rollout(z, state, self.config)
-        nan = np.full(1, math.nan)
-        survival = np.full((1, trajectory.poses.shape[0]), math.nan)
-        cost = CostBreakdown(nan, {name: nan for name in TERM_NAMES}, survival, nan, nan, nan)[0]
-        return Plan(z, math.nan, False, "no finite cost anywhere: stopping", 0, trajectory,
+        inf = np.full(1, math.inf)
+        survival = np.zeros((1, trajectory.poses.shape[0]))
+        cost = CostBreakdown(inf, {name: np.zeros(1) for name in TERM_NAMES}, survival,
+                             np.full(1, -math.inf), inf, np.zeros(1))[0]
+        return Plan(z, math.inf, False, "no finite cost anywhere: stopping", 0, trajectory,
                     _control(trajectory, self.config), cost, "stopped", tuple(records))
 
     def _plan_from(self, ev: Evaluation, index, status, success, message, nit, records) -> Plan:
