@@ -1,5 +1,7 @@
 """Shared test set-up: a non-interactive matplotlib backend and hypothesis profiles."""
 
+import os
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -14,7 +16,8 @@ settings.register_profile(
 settings.register_profile(
     "slow", deadline=None, max_examples=10_000, suppress_health_check=[HealthCheck.too_slow]
 )
-settings.load_profile("default")
+# HYPOTHESIS_PROFILE=slow runs the fuzzing suites with 10,000 examples each.
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))
 
 
 @pytest.fixture(autouse=True)
