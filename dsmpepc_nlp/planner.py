@@ -141,7 +141,10 @@ class Planner:
             Also run the sampler when the NLP succeeds (for cross-checks and plots).
         """
         started = time.perf_counter()
-        goal = np.asarray(goal, dtype=float)
+        try:
+            goal = np.asarray(goal, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"goal = {goal!r}: must be a finite (x, y) pair") from None
         if goal.shape != (2,) or not np.all(np.isfinite(goal)):
             raise InputError(f"goal = {goal!r}: must be a finite (x, y) pair")
         starts = structured_starts(state, goal, self.config, self._previous_target)

@@ -80,11 +80,28 @@ class Evaluation:
         return int(np.argmin(total))
 
 
+PAIR_BUDGET = 2_000_000
+"""Largest (trajectory, pose, footprint circle, obstacle circle) count costed in one batch: keeps
+the exact cost's temporaries near 100 MB however crowded the world."""
+
+
 def evaluate_batch(z, state: RobotState, world, goal, config: PlannerConfig) -> Evaluation:
-    """Roll out and cost every row of ``z`` (n, 4) exactly."""
+    """Roll out and cost every row of ``z`` (n, 4) exactly, in chunks bounded by PAIR_BUDGET."""
     z = np.atleast_2d(np.asarray(z, dtype=float))
     trajectories = rollout(z, state, config)
-    return Evaluation(z, trajectories, evaluate(trajectories, world, goal, config))
+    circles = max(1, len(world.stacked_obstacles()[1]))
+    per_row = (config.horizon.n_steps + 1) * len(config.robot.footprint) * circles
+    chunk = max(1, PAIR_BUDGET // per_row)
+    if len(z) <= chunk:
+        return Evaluation(z, trajectories, evaluate(trajectories, world, goal, config))
+    parts = [evaluate(trajectories[i:i + chunk], world, goal, config)
+             for i in range(0, len(z), chunk)]
+    costs = CostBreakdown(
+        np.concatenate([p.total for p in parts]),
+        {name: np.concatenate([p.terms[name] for p in parts]) for name in parts[0].terms},
+        *(np.concatenate([getattr(p, f) for p in parts])
+          for f in ("survivability", "min_distance", "ttg", "ttc_terminal")))
+    return Evaluation(z, trajectories, costs)
 
 
 class SamplingPlanner:
