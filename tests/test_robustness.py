@@ -14,10 +14,13 @@ from dsmpepc_nlp.world import DynamicObstacle, OccupancyGrid, World
 SAMPLING = SolverConfig.sampling(n_samples=256)
 
 
-def finite_in_limits(plan, config=PlannerConfig()):
+LIMITS = PlannerConfig().robot
+
+
+def finite_in_limits(plan, robot=LIMITS):
     v, omega = plan.control
-    return (math.isfinite(v) and math.isfinite(omega) and 0.0 <= v <= config.robot.v_limit
-            and abs(omega) <= config.robot.omega_limit and not math.isnan(plan.fun))
+    return (math.isfinite(v) and math.isfinite(omega) and 0.0 <= v <= robot.v_limit
+            and abs(omega) <= robot.omega_limit and not math.isnan(plan.fun))
 
 
 def test_goal_at_the_robot():
