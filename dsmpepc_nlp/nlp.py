@@ -31,6 +31,7 @@ from .nlp_graph import (
     pack_parameters,
     parameter_shapes,
 )
+from .sampling import box_samples, evaluate_batch
 
 __all__ = ["NlpSolver", "cost_function", "pack_parameters", "GraphSizes", "PARAMETER_NAMES",
            "parameter_shapes"]
@@ -52,14 +53,17 @@ def cost_function(config: PlannerConfig, sizes: GraphSizes | None = None,
     -------
     casadi.Function
         Named inputs ``z`` (4: r [m], theta [rad], delta [rad], v_max [m/s]), ``state`` (5),
-        ``goal`` (2), ``obstacle_circles``, ``obstacle_velocities``, ``map_disks``,
-        ``nav_waypoints`` (shapes from :func:`parameter_shapes`); named outputs ``cost``,
+        ``goal`` (3), ``obstacle_circles``, ``obstacle_velocities``, ``near_obstacles``,
+        ``nav_model``, ``map_model`` (shapes from :func:`parameter_shapes`; the last three are
+        local models along a reference trajectory, see :func:`pack_parameters`); named
+        outputs ``cost``,
         ``progress``, ``action``, ``collision``, ``heading``, ``terminal``.
 
     Examples
     --------
     >>> f = cost_function(PlannerConfig())                       # doctest: +SKIP
-    >>> params = pack_parameters(state, world, goal, PlannerConfig(), GraphSizes())
+    >>> params = pack_parameters(state, world, goal, PlannerConfig(), GraphSizes(),
+    ...                          reference=z_guess)                 # doctest: +SKIP
     >>> f(z=[2.0, 0.0, 0.0, 0.8], **params)["cost"]              # doctest: +SKIP
     """
     return build_cost_function(config, GraphSizes() if sizes is None else sizes, smoothing)
@@ -107,8 +111,23 @@ def _jit_options(config: PlannerConfig, sizes: GraphSizes, directory: str) -> di
             "jit_options": {"flags": ["-O2"], "verbose": False}}
 
 
+RELINEARISE_RADIUS = 0.3
+"""Largest distance (m) between a solution's poses and the reference its local models were
+taken along before the models are re-taken along the solution and the start re-solved."""
+MAX_OUTER = 3
+"""Solves per start at most (the first plus re-linearisations)."""
+_DISTINCT = 0.05
+"""Two starts closer than this share of the box (max norm) count as the same start."""
+
+
 class NlpSolver:
     """Multi-start NLP over z for one configuration; built once, solved every cycle.
+
+    Every start (the named ones and ``n_spread`` spread over the box) is first costed exactly
+    (batched numpy); the NLP then runs from the warm start and the best others only
+    (``n_solved`` in all). Each solve uses local models of the map and the navigation function
+    along the start's exact rollout; when the solution's poses leave the models' trust radius
+    they are re-taken along the solution and the solve repeated (at most ``MAX_OUTER`` times).
 
     Parameters
     ----------
@@ -116,8 +135,9 @@ class NlpSolver:
     solver : SolverConfig
         Plugin (``ipopt``, ``sqpmethod``), options, iteration limit, ``n_spread`` and ``seed``.
     sizes : GraphSizes, optional
-        Obstacle, map and navigation block sizes (default: 16 objects of 1 circle, 48 map disks,
-        8 waypoints). Objects beyond ``max_objects`` are dropped, farthest first.
+        Obstacle block sizes (default: 12 objects for the terminal TTC, 3 per pose).
+    n_solved : int, optional
+        Starts the NLP runs from (default 3 for IPOPT, 2 for the fast SQP configuration).
     jit_directory : str, optional
         Where compiled code is cached when ``solver.jit`` is set.
 
@@ -125,17 +145,25 @@ class NlpSolver:
     ----------
     build_s : float
         Seconds spent building the graph and solvers.
+    last_stats : list of dict
+        Per NLP solve of the last cycle: name, outer iteration, iterations, wall times of the
+        solver's function evaluations and the packing time (for profiling).
     """
 
     def __init__(self, config: PlannerConfig, solver: SolverConfig | None = None,
-                 sizes: GraphSizes | None = None, jit_directory: str = ".dsmpepc_jit"):
+                 sizes: GraphSizes | None = None, n_solved: int | None = None,
+                 jit_directory: str = ".dsmpepc_jit"):
         started = time.perf_counter()
         self.config = config
         self.solver_config = SolverConfig() if solver is None else solver
         self.sizes = GraphSizes() if sizes is None else sizes
+        if n_solved is None:
+            n_solved = 2 if self.solver_config.method == "sqpmethod" else 3
+        self.n_solved = n_solved
         self.cost = build_cost_function(config, self.sizes)
+        shapes = parameter_shapes(config, self.sizes)
         z = ca.SX.sym("z", 4)
-        blocks = [ca.SX.sym(n, *parameter_shapes(self.sizes)[n]) for n in PARAMETER_NAMES]
+        blocks = [ca.SX.sym(n, *shapes[n]) for n in PARAMETER_NAMES]
         flat = ca.vertcat(*(ca.vec(b) for b in blocks))
         nlp = {"x": z, "p": flat, "f": self.cost(z, *blocks)[0]}
         extra = (_jit_options(config, self.sizes, jit_directory)
@@ -152,18 +180,31 @@ class NlpSolver:
                              f"solver for this problem ({str(error).splitlines()[-1]})") from None
         self.lower = np.array(config.z_lower, dtype=float)
         self.upper = np.array(config.z_upper, dtype=float)
-        from .sampling import box_samples
-
         self.spread = box_samples(config, self.solver_config.n_spread, self.solver_config.seed)
         self._lam_x = None
+        self.last_stats = []
         self.build_s = time.perf_counter() - started
 
-    def parameters(self, state: RobotState, world, goal) -> np.ndarray:
+    def parameters(self, state: RobotState, world, goal, reference=None) -> np.ndarray:
         """The flat parameter vector of one cycle (see :func:`nlp_graph.pack_parameters`)."""
-        return flatten_parameters(pack_parameters(state, world, goal, self.config, self.sizes))
+        return flatten_parameters(pack_parameters(state, world, goal, self.config, self.sizes,
+                                                  reference))
+
+    def _choose(self, named, costs) -> list:
+        """Indices to solve from: ``warm`` first, then the best distinct others by exact cost."""
+        span = self.upper - self.lower
+        order = [i for i, (name, _) in enumerate(named) if name == "warm"]
+        for i in np.argsort(np.where(np.isfinite(costs), costs, np.inf), kind="stable"):
+            if len(order) >= self.n_solved:
+                break
+            if i in order or not np.isfinite(costs[i]):
+                continue
+            if all(np.max(np.abs(named[i][1] - named[j][1]) / span) > _DISTINCT for j in order):
+                order.append(int(i))
+        return order
 
     def solve(self, state: RobotState, world, goal, starts: dict) -> list:
-        """Run every start and return one :class:`~dsmpepc_nlp.planner.StartRecord` each.
+        """Screen every start exactly, run the NLP from the best few; one record per start.
 
         Parameters
         ----------
@@ -178,27 +219,68 @@ class NlpSolver:
         Returns
         -------
         list of StartRecord
-            In the order of ``starts`` then the spread starts. Solver trouble never raises:
-            the record has ``success=False`` and a status saying why.
+            In the order of ``starts`` then the spread starts. Starts the NLP did not run from
+            have status ``screened``, ``nit`` 0 and ``z = z0`` (a candidate like any other:
+            the plan is never worse than the best start). Solver trouble never raises: the
+            record has ``success=False`` and a status saying why.
         """
         from .planner import StartRecord
 
-        named = [(name, np.asarray(z, dtype=float)) for name, z in starts.items()]
+        named = [(name, np.clip(np.where(np.isfinite(z), z, self.lower), self.lower,
+                                self.upper))
+                 for name, z in ((n, np.asarray(z, dtype=float)) for n, z in starts.items())]
         named += [(f"spread-{i}", z) for i, z in enumerate(self.spread)]
-        records = []
-        try:
-            p = self.parameters(state, world, goal)
-        except (ValueError, FloatingPointError) as error:
-            return [StartRecord(name, z0, np.clip(z0, self.lower, self.upper),
-                                f"parameters: {error}", False, 0, 0.0) for name, z0 in named]
+        self.last_stats = []
+        screened = evaluate_batch(np.array([z for _, z in named]), state, world, goal,
+                                  self.config)
+        costs = screened.costs.total
+        records = [StartRecord(name, z0, z0, "screened", False, 0, 0.0, math.nan,
+                               float(costs[i])) for i, (name, z0) in enumerate(named)]
         best_cost, best_lam = math.inf, None
-        for name, z0 in named:
-            record, lam_x = self._run(name, z0, p)
-            records.append(record)
+        for i in self._choose(named, costs):
+            name, z0 = named[i]
+            record, lam_x = self._run_outer(name, z0, screened.trajectories[i].poses, state,
+                                            world, goal)
+            records[i] = record
             if record.success and record.smooth_cost < best_cost:
                 best_cost, best_lam = record.smooth_cost, lam_x
-        self._lam_x = best_lam
+        if best_lam is not None:
+            self._lam_x = best_lam
         return records
+
+    def _run_outer(self, name, z0, poses, state, world, goal):
+        """Solve from ``z0`` with models along ``poses``; re-take them while the solution
+        leaves their trust radius."""
+        from .control_law import rollout
+        from .planner import StartRecord
+
+        started = time.perf_counter()
+        z_start, lam_x = z0, (self._lam_x if name == "warm" else None)
+        nit, record = 0, None
+        for outer in range(MAX_OUTER):
+            packed = time.perf_counter()
+            try:
+                p = self.parameters(state, world, goal, poses)
+            except (ValueError, FloatingPointError) as error:
+                return StartRecord(name, z0, z0, f"parameters: {error}", False, nit,
+                                   time.perf_counter() - started), None
+            pack_s = time.perf_counter() - packed
+            result = self._run(z_start, p, lam_x)
+            self.last_stats.append({"name": name, "outer": outer, "pack_s": pack_s,
+                                    **result["stats"]})
+            nit += result["nit"]
+            if result["z"] is None:
+                record = StartRecord(name, z0, z_start, result["status"], False, nit,
+                                     time.perf_counter() - started)
+                return record, None
+            z, lam_x = result["z"], result["lam_x"]
+            record = StartRecord(name, z0, z, result["status"], result["usable"], nit,
+                                 time.perf_counter() - started, result["cost"])
+            moved = rollout(z, state, self.config).poses
+            if np.max(np.linalg.norm(moved[:, :2] - poses[:, :2], axis=1)) <= RELINEARISE_RADIUS:
+                break
+            z_start, poses = z, moved
+        return record, lam_x
 
     def _snap(self, z):
         """z clipped to the box, and put on a bound within 1e-4 of its range of it.
@@ -212,36 +294,34 @@ class NlpSolver:
         z = np.where(z - self.lower < near, self.lower, z)
         return np.where(self.upper - z < near, self.upper, z)
 
-    def _run(self, name, z0, p):
-        from .planner import StartRecord
-
-        z_start = np.clip(np.where(np.isfinite(z0), z0, self.lower), self.lower, self.upper)
-        warm = name == "warm" and self._lam_x is not None
+    def _run(self, z_start, p, lam_x) -> dict:
+        warm = lam_x is not None
         solver = self._warm if warm else self._cold
         args = {"x0": z_start, "p": p, "lbx": self.lower, "ubx": self.upper}
         if warm:
-            args["lam_x0"] = self._lam_x
-        started = time.perf_counter()
+            args["lam_x0"] = lam_x
         try:
             result = solver(**args)
             stats = solver.stats()
         except RuntimeError as error:
             message = str(error).strip().splitlines()[-1] if str(error).strip() else "error"
-            return StartRecord(name, z0, z_start, f"exception: {message}", False, 0,
-                               time.perf_counter() - started), None
-        elapsed = time.perf_counter() - started
+            return {"z": None, "status": f"exception: {message}", "nit": 0, "stats": {}}
         z = np.asarray(result["x"], dtype=float).reshape(-1)
         cost = float(result["f"])
         status = str(stats.get("return_status", "unknown"))
-        success = bool(stats.get("success", False))
+        nit = int(stats.get("iter_count", 0))
+        timing = {key: stats[key] for key in ("t_wall_total", "t_wall_nlp_f", "t_wall_nlp_grad_f",
+                                              "t_wall_nlp_hess_l") if key in stats}
+        timing["iter_count"] = nit
         if not (np.all(np.isfinite(z)) and math.isfinite(cost)):
-            return StartRecord(name, z0, z_start, f"non-finite result ({status})", False,
-                               int(stats.get("iter_count", 0)), elapsed), None
+            return {"z": None, "status": f"non-finite result ({status})", "nit": nit,
+                    "stats": timing}
         # A start stopped by the iteration limit still hands back a usable iterate: the
         # planner judges it by its exact cost like any other.
-        usable = success or status in ("Maximum_Iterations_Exceeded", "Solved_To_Acceptable_Level",
-                                       "Search_Direction_Becomes_Too_Small",
-                                       "Maximum_Iterations_Reached", "SOLVER_RET_LIMITED")
-        return (StartRecord(name, z0, self._snap(z), status, usable,
-                            int(stats.get("iter_count", 0)), elapsed, cost),
-                np.asarray(result["lam_x"], dtype=float).reshape(-1))
+        usable = bool(stats.get("success", False)) or status in (
+            "Maximum_Iterations_Exceeded", "Solved_To_Acceptable_Level",
+            "Search_Direction_Becomes_Too_Small", "Maximum_Iterations_Reached",
+            "SOLVER_RET_LIMITED")
+        return {"z": self._snap(z), "status": status, "usable": usable, "nit": nit,
+                "cost": cost, "lam_x": np.asarray(result["lam_x"], dtype=float).reshape(-1),
+                "stats": timing}

@@ -1,26 +1,6 @@
-"""The smooth DS-MPEPC cost as one SX graph in z, with the per-cycle world packed as parameters.
+"""The smooth DS-MPEPC cost as a small CasADi graph in z, with the world packed as local models.
 
-What the graph sees of the world (chosen for an all-SX graph; measured in ``nlp.py``'s notes):
-
-- **Dynamic obstacles**: ``max_objects`` objects of up to ``circles_per_object`` circles, each
-  circle ``(x, y, radius)`` now plus one velocity per object; predicted at constant velocity in
-  the graph. Padding objects sit ``FAR`` away, where their collision probability underflows to
-  exactly 0. A world with more objects keeps the ``max_objects`` nearest the robot; an object
-  with more circles keeps the circles nearest the robot.
-- **Static map**: ``map_disks`` occupied boundary cells as small disks ``(x, y, radius)``; the
-  distance to the map is the soft-min gap to them, and static 1/TTC is the shared
-  :func:`~dsmpepc_nlp.costs.disk_inverse_ttc` against disks of zero velocity (so one formula
-  serves moving and still objects). Cells are taken nearest the robot first; where that leaves
-  a wall sparse, neighbouring cells are merged (spacing up to two cells) into disks sized so
-  that the scallops between them stay within half a cell of the true surface.
-- **Navigation function**: ``nav_waypoints`` points ``w`` with their exact NF values; the graph
-  uses ``NF(p) = softmin_w(|p - w| + NF(w))`` (the Bellman form of a path length). With no map the
-  only waypoint is the goal and this is the exact Euclidean NF. With a map the waypoints lie on
-  the grid's descent path from the robot (corners included), exact on and near that path.
-
-Why not a B-spline of the signed distance / NF over a local window: CasADi's parametric
-``bspline`` is an MX node (no SX expansion) whose derivatives transform the whole coefficient
-vector on every call (casadi/casadi#3762), while the per-iteration budget here is ~0.1 ms.
+DESIGN_NOTES_PLACEHOLDER
 """
 
 from __future__ import annotations
@@ -32,12 +12,27 @@ import casadi as ca
 import numpy as np
 
 from .config import PlannerConfig, RobotState
-from .control_law import clamp_measured, step_function, target_pose
+from .control_law import EXACT, clamp_measured, rollout, step_function, target_pose
 from .costs import TERM_NAMES, assemble, disk_inverse_ttc, heading_error, inverse_ttg
 from .smooth import CASADI, relu, smax, softmax_objects, softmin_objects
 
 FAR = 1.0e3
-"""Position of padding objects, disks and waypoints, m: exp(-FAR^2/sigma^2) is exactly 0."""
+"""Distance reported by padding objects and by the map model of a world without a map, m:
+exp(-FAR^2/sigma^2) is exactly 0."""
+
+MODEL_RADIUS = 0.5
+"""Trust radius of the local quadratic models, m: the curvature term is damped by
+``1 / (1 + |dp|^2 / MODEL_RADIUS^2)`` so a model never bends back far from its reference."""
+
+_TTG_TEMPERATURE = 0.1
+"""Soft-clip temperature of 1/TTG's numerator as a share of s_ttg (times 1 m^2)."""
+
+NAV_COLUMNS = 8
+"""Per pose: reference point (x, y), NF value, gradient (2), Hessian (xx, xy, yy)."""
+MAP_COLUMNS = 12
+"""Per pose and footprint circle: reference centre (x, y), signed distance, gradient (2),
+Hessian (xx, xy, yy), then the wall plane the reference ray hits: point (x, y), unit normal
+(x, y) (a plane FAR ahead when the ray misses within ``ttc_range``)."""
 
 
 @dataclass(frozen=True)
@@ -47,182 +42,243 @@ class GraphSizes:
     Attributes
     ----------
     max_objects : int
-        Dynamic objects K the graph holds (the nearest ones are kept).
+        Dynamic objects K the terminal time to collision sees (the nearest ones are kept).
+    near_objects : int
+        Dynamic objects per pose (the nearest to that reference pose at that time): the only
+        ones whose collision probability is not ~0 along a trajectory near the reference.
     circles_per_object : int
-        Circles per object (a pedestrian uses 1; padding repeats its first circle).
-    map_disks : int
-        Disks standing for the static map near the robot.
-    nav_waypoints : int
-        Waypoints of the navigation-function representation.
+        Circles per object (a pedestrian uses 1; padding repeats its nearest circle).
     """
 
-    max_objects: int = 16
+    max_objects: int = 12
+    near_objects: int = 3
     circles_per_object: int = 1
-    map_disks: int = 48
-    nav_waypoints: int = 8
 
     def __post_init__(self):
-        for name in ("max_objects", "circles_per_object", "map_disks", "nav_waypoints"):
+        for name in ("max_objects", "near_objects", "circles_per_object"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ValueError(f"GraphSizes.{name} = {value!r}: must be an integer >= 1")
 
 
-PARAMETER_NAMES = ("state", "goal", "obstacle_circles", "obstacle_velocities", "map_disks",
-                   "nav_waypoints")
+PARAMETER_NAMES = ("state", "goal", "obstacle_circles", "obstacle_velocities", "near_obstacles",
+                   "nav_model", "map_model")
 """Named parameter inputs of :func:`build_cost_function`, in order."""
 
 
-def parameter_shapes(sizes: GraphSizes) -> dict:
+def near_columns(sizes: GraphSizes) -> int:
+    """Columns of a pose's row of ``near_obstacles``: per object its circles' (x, y, radius)
+    at that pose's time, then its velocity (vx, vy)."""
+    return sizes.near_objects * (3 * sizes.circles_per_object + 2)
+
+
+def parameter_shapes(config: PlannerConfig, sizes: GraphSizes) -> dict:
     """Shape of each parameter block (CasADi column-major)."""
+    n_poses = config.horizon.n_steps + 1
+    n_circles = len(config.robot.footprint)
     return {
         "state": (5, 1),
-        "goal": (2, 1),
+        "goal": (3, 1),
         "obstacle_circles": (sizes.max_objects * sizes.circles_per_object, 3),
         "obstacle_velocities": (sizes.max_objects, 2),
-        "map_disks": (sizes.map_disks, 3),
-        "nav_waypoints": (sizes.nav_waypoints, 3),
+        "near_obstacles": (n_poses, near_columns(sizes)),
+        "nav_model": (n_poses, NAV_COLUMNS),
+        "map_model": (n_poses, MAP_COLUMNS * n_circles),
     }
 
 
 # --- the graph ----------------------------------------------------------------------------
 
 
-def _circle_pairs(points, radii, centres, centre_radii):
-    """Gap and relative position of every (robot circle, other circle) pair, flattened.
+def local_quadratic(point, model):
+    """A local model ``(x0, y0, f, gx, gy, hxx, hxy, hyy)`` evaluated at ``point``.
 
-    ``points`` C x 2, ``centres`` Q x 2 (SX). Returns ``(gap, px, py, radius)`` each 1 x (C Q),
-    pairs ordered circle-major over ``centres``.
+    ``f + g.dp + 0.5 dp'H dp / (1 + |dp|^2/R^2)`` with ``R = MODEL_RADIUS``: exact value and
+    gradient at the reference; far from it the curvature term stays bounded (by
+    ``0.5 |H| R^2``) so a distance model cannot bend back up. Returns ``(value, gradient)``
+    with the gradient of the same expression (SX, 2 x 1).
     """
-    n_c, n_q = points.shape[0], centres.shape[0]
-    px = ca.repmat(points[:, 0], 1, n_q) - ca.repmat(centres[:, 0].T, n_c, 1)
-    py = ca.repmat(points[:, 1], 1, n_q) - ca.repmat(centres[:, 1].T, n_c, 1)
-    radius = ca.repmat(ca.DM(radii), 1, n_q) + ca.repmat(centre_radii.T, n_c, 1)
-    gap = ca.sqrt(px * px + py * py) - radius
-    flat = lambda m: ca.reshape(m, 1, n_c * n_q)  # noqa: E731
-    return flat(gap), flat(px), flat(py), flat(radius)
+    dx, dy = point[0] - model[0], point[1] - model[1]
+    quad = model[5] * dx * dx + 2.0 * model[6] * dx * dy + model[7] * dy * dy
+    damp = 1.0 / (1.0 + (dx * dx + dy * dy) / MODEL_RADIUS**2)
+    value = model[2] + model[3] * dx + model[4] * dy + 0.5 * quad * damp
+    # d/dp of 0.5 quad damp = damp H dp - quad damp^2 dp / R^2
+    hx = model[5] * dx + model[6] * dy
+    hy = model[6] * dx + model[7] * dy
+    shrink = quad * damp * damp / MODEL_RADIUS**2
+    grad = (model[3] + damp * hx - shrink * dx, model[4] + damp * hy - shrink * dy)
+    return value, grad
 
 
-def _per_object(values, n_objects):
-    """Row of length n_objects * per into an n_objects x per matrix (objects in rows)."""
-    per = values.shape[1] // n_objects
-    return ca.reshape(values, per, n_objects).T
+def _sigmoid(x):
+    return 0.5 + 0.5 * ca.tanh(0.5 * x)
 
 
-def _object_geometry(pose, speed, time, circles, velocities, disks, config, smoothing, sizes):
-    """Distance (1 x M) and 1/TTC (1 x M) at one pose; object 0 is the map, then K objects."""
-    c_obj, k_max = sizes.circles_per_object, sizes.max_objects
+def _static_geometry(pose, speed, map_row, config, smoothing):
+    """Gap to the map (scalar) and planar 1/TTC (scalar) at one pose from the local models.
+
+    The gap is the local quadratic model of the signed distance. 1/TTC against the map is
+    ``max(v (-u.n), 0) / (n.(p - q))``: the ray distance to the wall plane (point q, normal n)
+    that the reference pose's ray hit, the exact ray march's answer at the reference and for
+    any pose in front of a flat wall; the ray march's range cut (``ttc_range``) is a gate.
+    """
     footprint = np.array(config.robot.footprint)
     cos, sin = ca.cos(pose[2]), ca.sin(pose[2])
-    points = ca.horzcat(pose[0] + cos * footprint[:, 0] - sin * footprint[:, 1],
-                        pose[1] + sin * footprint[:, 0] + cos * footprint[:, 1])
-    n_c = footprint.shape[0]
-    vx, vy = speed * cos, speed * sin
-    t_dist, t_inv = smoothing.distance, smoothing.inverse_time
-    # Static map: one object; see _static_geometry for why its TTC is planar.
-    static_d, static_inv = _static_geometry(points, footprint[:, 2], vx, vy, disks, config,
-                                            smoothing)
-    distance, inverse = [static_d], [static_inv]
-    # Dynamic objects at this time; each circle moves with its object's velocity.
+    t_dist = smoothing.distance
+    reach = config.cost.ttc_range
+    gaps, inverses = [], []
+    for c, (cx, cy, radius) in enumerate(footprint):
+        row = map_row[MAP_COLUMNS * c:MAP_COLUMNS * (c + 1)]
+        point = (pose[0] + cos * cx - sin * cy, pose[1] + sin * cx + cos * cy)
+        value, _ = local_quadratic(point, row[:8])
+        gap = value - radius
+        gaps.append(gap)
+        if not config.anticipatory_pc and not config.terminal_cost:
+            continue
+        normal_x, normal_y = row[10], row[11]
+        along = normal_x * (point[0] - row[8]) + normal_y * (point[1] - row[9])   # m, to plane
+        closing = -(cos * normal_x + sin * normal_y) * speed                      # m/s
+        if t_dist == 0:
+            hit = ca.if_else(closing * reach >= speed * along, 1.0, 0.0)
+            inv = ca.if_else(ca.fmin(gap, along) <= 0, np.inf,
+                             hit * ca.fmax(closing, 0.0) / ca.fmax(along, 1e-300))
+        else:
+            gate = _sigmoid((closing * reach - speed * along) / (t_dist * config.robot.v_limit))
+            inv = gate * relu(closing, t_dist, CASADI) / smax(along, t_dist, t_dist, CASADI)
+        inverses.append(inv)
+    gap = softmin_objects(ca.horzcat(*gaps), t_dist, CASADI) if len(gaps) > 1 else gaps[0]
+    if not inverses:
+        return gap, ca.SX(0)
+    inv = (softmax_objects(ca.horzcat(*inverses), smoothing.inverse_time, CASADI)
+           if len(inverses) > 1 else inverses[0])
+    return gap, inv
+
+
+def _dynamic_geometry(pose, speed, time, circles, velocities, config, smoothing, sizes,
+                      with_ttc, k_max):
+    """Distance (1 x k_max) and 1/TTC (1 x k_max) to each of ``k_max`` objects at one pose.
+
+    ``circles`` ((k_max C_obj) x 3: x, y, radius at time 0) move with ``velocities``
+    (k_max x 2) for ``time`` seconds.
+    """
+    c_obj = sizes.circles_per_object
+    footprint = np.array(config.robot.footprint)
+    cos, sin = ca.cos(pose[2]), ca.sin(pose[2])
     obj_vel = ca.kron(velocities, ca.DM.ones(c_obj, 1))              # (K C_obj) x 2
     centres = circles[:, :2] + time * obj_vel
-    gap, px, py, radius = _circle_pairs(points, footprint[:, 2], centres, circles[:, 2])
-    # Pairs are ordered robot-circle-major; regroup so each object's pairs are one row.
-    order = [c + n_c * q for q in range(k_max * c_obj) for c in range(n_c)]
-    gap = _per_object(gap[:, order], k_max)
-    distance.append(softmin_objects(gap, t_dist, CASADI).T)
-    if config.anticipatory_pc:
-        wx = vx - ca.reshape(ca.repmat(obj_vel[:, 0].T, n_c, 1), 1, n_c * k_max * c_obj)
-        wy = vy - ca.reshape(ca.repmat(obj_vel[:, 1].T, n_c, 1), 1, n_c * k_max * c_obj)
-        inv = disk_inverse_ttc(px, py, wx, wy, radius, smoothing, CASADI)
-        inverse.append(softmax_objects(_per_object(inv[:, order], k_max), t_inv, CASADI).T)
-    else:
-        inverse.append(ca.SX.zeros(1, k_max))
-    return ca.horzcat(*distance), ca.horzcat(*inverse)
+    gaps, inverses = [], []
+    for cx, cy, radius in footprint:
+        px = pose[0] + cos * cx - sin * cy - centres[:, 0]
+        py = pose[1] + sin * cx + cos * cy - centres[:, 1]
+        reach = radius + circles[:, 2]
+        gaps.append(ca.sqrt(px * px + py * py) - reach)
+        if with_ttc:
+            wx, wy = speed * cos - obj_vel[:, 0], speed * sin - obj_vel[:, 1]
+            inverses.append(disk_inverse_ttc(px, py, wx, wy, reach, smoothing, CASADI))
+
+    def per_object(columns):
+        # Rows: objects; columns: every robot circle x object circle of that object.
+        stacked = ca.horzcat(*columns)                                # (K C_obj) x C
+        return ca.reshape(stacked.T, len(columns) * c_obj, k_max).T   # K x (C C_obj)
+
+    gap = per_object(gaps)
+    distance = (softmin_objects(gap, smoothing.distance, CASADI) if gap.shape[1] > 1 else gap)
+    if not with_ttc:
+        return distance.T, ca.SX.zeros(1, k_max)
+    inv = per_object(inverses)
+    inv = softmax_objects(inv, smoothing.inverse_time, CASADI) if inv.shape[1] > 1 else inv
+    return distance.T, inv.T
 
 
-_WEIGHT_TEMPERATURE = 1e-3
-"""Floor of the temperature of the nearest-disk weights, m (the exact form has none to offer)."""
+def _navigation(point, nav_row, goal):
+    """NF value and gradient at ``point``: the local model, or Euclidean when ``goal[2]`` is 1."""
+    value, grad = local_quadratic(point, nav_row)
+    dx, dy = point[0] - goal[0], point[1] - goal[1]
+    norm = ca.sqrt(dx * dx + dy * dy + 1e-12)
+    euclid = goal[2]
+    return (euclid * norm + (1 - euclid) * value,
+            (euclid * dx / norm + (1 - euclid) * grad[0],
+             euclid * dy / norm + (1 - euclid) * grad[1]))
 
 
-def _static_geometry(points, radii, vx, vy, disks, config, smoothing):
-    """Distance (1x1) to the map disks and planar 1/TTC (1x1) from the footprint circles.
+def _split_near(row, sizes):
+    """A pose's ``near_obstacles`` row into ``(circles, velocities)`` matrices."""
+    k, c_obj = sizes.near_objects, sizes.circles_per_object
+    circles = ca.reshape(row[:3 * k * c_obj], 3, k * c_obj).T
+    velocities = ca.reshape(row[3 * k * c_obj:], 2, k).T
+    return circles, velocities
 
-    1/TTC against the map is ``max(-v u.n, 0) / gap``, with ``n`` the direction away from the
-    nearest disks (soft-min weights): the ray distance to a straight wall, which is what the
-    exact ray march measures head-on and obliquely. Measured against per-disk
-    :func:`disk_inverse_ttc` (zero velocity) it cost 3x the graph (48 disks) for a difference
-    only at corners, so the planar form is used here.
+
+def pose_function(config: PlannerConfig, sizes: GraphSizes, smoothing) -> ca.Function:
+    """Geometry of one pose as an SX ``Function`` named ``pose_geometry``.
+
+    ``(pose[3], speed, near_row, nav_row, map_row, goal[3]) -> (distance 1 x (1+K_near),
+    inv_ttc 1 x (1+K_near), nf, descent[2])``; object 0 is the map.
     """
-    t_dist = smoothing.distance
-    distances, inverses = [], []
-    for c in range(points.shape[0]):
-        dx = points[c, 0] - disks[:, 0].T
-        dy = points[c, 1] - disks[:, 1].T
-        centre = ca.sqrt(dx * dx + dy * dy + 1e-12)
-        gap = centre - disks[:, 2].T - radii[c]
-        d = softmin_objects(gap, t_dist, CASADI)
-        distances.append(d)
-        if not config.anticipatory_pc:
-            continue
-        scaled = -gap / max(t_dist, _WEIGHT_TEMPERATURE)
-        weights = ca.exp(scaled - ca.mmax(scaled))
-        weights = weights / ca.sum2(weights)
-        nx = ca.sum2(weights * dx / centre)
-        ny = ca.sum2(weights * dy / centre)
-        closing = relu(-(vx * nx + vy * ny), t_dist, CASADI)
-        if t_dist == 0:
-            inverses.append(ca.if_else(d <= 0, np.inf, closing / ca.fmax(d, 1e-300)))
-        else:
-            inverses.append(closing / smax(d, t_dist, t_dist, CASADI))
-    distance = softmin_objects(ca.horzcat(*distances), t_dist, CASADI)
-    if not inverses:
-        return distance, ca.SX(0)
-    return distance, softmax_objects(ca.horzcat(*inverses), smoothing.inverse_time, CASADI)
+    shapes = parameter_shapes(config, sizes)
+    pose, speed = ca.SX.sym("pose", 3), ca.SX.sym("speed")
+    near_row = ca.SX.sym("near_row", shapes["near_obstacles"][1])
+    nav_row = ca.SX.sym("nav_row", NAV_COLUMNS)
+    map_row = ca.SX.sym("map_row", shapes["map_model"][1])
+    goal = ca.SX.sym("goal", 3)
+    static_d, static_inv = _static_geometry(pose, speed, map_row, config, smoothing)
+    circles, velocities = _split_near(near_row, sizes)
+    dyn_d, dyn_inv = _dynamic_geometry(pose, speed, 0.0, circles, velocities, config,
+                                       smoothing, sizes, config.anticipatory_pc,
+                                       sizes.near_objects)
+    nf, grad = _navigation(pose[:2], nav_row, goal)
+    if not config.anticipatory_pc:
+        static_inv = ca.SX(0)
+    return ca.Function(
+        "pose_geometry", [pose, speed, near_row, nav_row, map_row, goal],
+        [ca.horzcat(static_d, dyn_d), ca.horzcat(static_inv, dyn_inv), nf, -ca.vertcat(*grad)],
+        ["pose", "speed", "near_row", "nav_row", "map_row", "goal"],
+        ["distance", "inv_ttc", "nf", "descent"])
 
 
-def _terminal_inverse_ttc(pose, time, circles, velocities, disks, config, smoothing, sizes):
+def terminal_function(config: PlannerConfig, sizes: GraphSizes, smoothing) -> ca.Function:
     """1/TTC at the horizon's end moving along the terminal heading at v_limit (scalar)."""
-    _, inverse = _object_geometry(pose, config.robot.v_limit, time, circles, velocities, disks,
-                                  dataclasses.replace(config, anticipatory_pc=True), smoothing,
-                                  sizes)
-    return softmax_objects(inverse, smoothing.inverse_time, CASADI)
-
-
-def navigation_value(point, waypoints, temperature):
-    """Smooth navigation function at ``point`` (2 x 1) from waypoints (W x 3: x, y, NF), m."""
-    dx = point[0] - waypoints[:, 0].T
-    dy = point[1] - waypoints[:, 1].T
-    # A small floor keeps the gradient of |p - w| finite at a waypoint.
-    through = ca.sqrt(dx * dx + dy * dy + 1e-12) + waypoints[:, 2].T
-    return softmin_objects(through, temperature, CASADI)
+    shapes = parameter_shapes(config, sizes)
+    pose, time = ca.SX.sym("pose", 3), ca.SX.sym("time")
+    map_row = ca.SX.sym("map_row", shapes["map_model"][1])
+    circles = ca.SX.sym("circles", *shapes["obstacle_circles"])
+    velocities = ca.SX.sym("velocities", *shapes["obstacle_velocities"])
+    speed = config.robot.v_limit
+    _, static_inv = _static_geometry(pose, speed, map_row, config, smoothing)
+    _, dyn_inv = _dynamic_geometry(pose, speed, time, circles, velocities, config, smoothing,
+                                   sizes, True, sizes.max_objects)
+    inv = softmax_objects(ca.horzcat(static_inv, dyn_inv), smoothing.inverse_time, CASADI)
+    return ca.Function("terminal_inv_ttc", [pose, time, map_row, circles, velocities], [inv],
+                       ["pose", "time", "map_row", "circles", "velocities"], ["inv_ttc"])
 
 
 def build_cost_function(config: PlannerConfig, sizes: GraphSizes, smoothing=None) -> ca.Function:
     """The smooth cost as an SX ``casadi.Function`` named ``dsmpepc_cost``.
 
     Inputs (see :func:`parameter_shapes`): ``z`` (4), ``state`` (5: x, y, phi, v, omega with
-    the measured velocity within the limits), ``goal`` (2), ``obstacle_circles`` ((K C_obj) x 3:
-    x, y, radius now, object-major), ``obstacle_velocities`` (K x 2), ``map_disks`` (P x 3),
-    ``nav_waypoints`` (W x 3: x, y, NF value). Outputs: ``cost`` and each term of
-    :data:`~dsmpepc_nlp.costs.TERM_NAMES`, all scalars.
+    the measured velocity within the limits), ``goal`` (3: x, y, and 1 for a Euclidean NF /
+    0 for the local NF models), ``obstacle_circles`` ((K C_obj) x 3: x, y, radius now,
+    object-major), ``obstacle_velocities`` (K x 2), ``nav_model`` ((N+1) x 8), ``map_model``
+    ((N+1) x 8C). Outputs: ``cost`` and each term of :data:`~dsmpepc_nlp.costs.TERM_NAMES`.
     """
     smoothing = config.smoothing if smoothing is None else smoothing
-    shapes = parameter_shapes(sizes)
+    shapes = parameter_shapes(config, sizes)
     z = ca.SX.sym("z", 4)
     params = {name: ca.SX.sym(name, *shape) for name, shape in shapes.items()}
-    total, terms = _cost_expression(z, params, config, sizes, smoothing)
-    names = ["z", *PARAMETER_NAMES]
+    total, terms = cost_expression(z, params, config, sizes, smoothing)
     return ca.Function("dsmpepc_cost", [z, *(params[n] for n in PARAMETER_NAMES)],
-                       [total, *(terms[t] for t in TERM_NAMES)], names, ["cost", *TERM_NAMES])
+                       [total, *(terms[t] for t in TERM_NAMES)], ["z", *PARAMETER_NAMES],
+                       ["cost", *TERM_NAMES])
 
 
-def _cost_expression(z, params, config, sizes, smoothing):
+def cost_expression(z, params, config, sizes, smoothing):
+    """``(total, terms)`` as SX expressions of ``z`` and the parameter blocks."""
     state, goal = params["state"], params["goal"]
     circles, velocities = params["obstacle_circles"], params["obstacle_velocities"]
-    disks, waypoints = params["map_disks"], params["nav_waypoints"]
+    nav, maps, near = params["nav_model"], params["map_model"], params["near_obstacles"]
     n_steps, dt = config.horizon.n_steps, config.horizon.dt
     law_step = step_function(config, smoothing)
+    geometry = pose_function(config, sizes, smoothing)
     target = ca.vertcat(*target_pose([z[0], z[1], z[2]], [state[0], state[1], state[2]], CASADI))
     carry, poses, vs, omegas = state, [state[:3]], [], []
     for _ in range(n_steps):
@@ -231,23 +287,28 @@ def _cost_expression(z, params, config, sizes, smoothing):
         vs.append(v)
         omegas.append(omega)
     distances, inverses, nf = [], [], []
+    descent = None
     for k, pose in enumerate(poses):
         speed = vs[min(k, n_steps - 1)]
-        d, inv = _object_geometry(pose, speed, k * dt, circles, velocities, disks, config,
-                                  smoothing, sizes)
+        d, inv, value, descent = geometry(pose, speed, near[k, :].T, nav[k, :].T, maps[k, :].T,
+                                          goal)
         distances.append(d)
         inverses.append(inv)
-        nf.append(navigation_value(pose[:2], waypoints, smoothing.distance))
+        nf.append(value)
     end = poses[-1]
-    point = ca.SX.sym("point", 2)
-    nf_end = navigation_value(point, waypoints, smoothing.distance)
-    descent = -ca.substitute(ca.gradient(nf_end, point), point, end[:2])
     err = heading_error(end[2], descent[0], descent[1], CASADI, smoothing)
-    inv_ttg = inverse_ttg((end[0], end[1], end[2]), vs[-1], goal, CASADI, smoothing)
-    inv_term = (_terminal_inverse_ttc(end, n_steps * dt, circles, velocities, disks, config,
-                                      smoothing, sizes)
-                if config.terminal_cost else ca.SX(0))
-    sigma = ca.DM([[config.cost.sigma_static] + [config.cost.sigma_dynamic] * sizes.max_objects])
+    # The TTG bell is s_ttg = 1e-3 1/s wide: a softplus of temperature inverse_time (0.02)
+    # would add ~0.014 / |g - p|^2 1/s to 1/TTG and shrink C_TTG by up to 0.45 where the exact
+    # value is 1, so this one soft-clip runs at a tenth of s_ttg (in m^2/s).
+    ttg_smoothing = dataclasses.replace(
+        smoothing, inverse_time=min(smoothing.inverse_time, _TTG_TEMPERATURE * config.cost.s_ttg))
+    inv_ttg = inverse_ttg((end[0], end[1], end[2]), vs[-1], goal, CASADI, ttg_smoothing)
+    inv_term = ca.SX(0)
+    if config.terminal_cost:
+        terminal = terminal_function(config, sizes, smoothing)
+        inv_term = terminal(end, n_steps * dt, maps[n_steps, :].T, circles, velocities)
+    sigma = ca.DM([[config.cost.sigma_static]
+                   + [config.cost.sigma_dynamic] * sizes.near_objects])
     sigma = ca.repmat(sigma, n_steps + 1, 1)  # CasADi does not broadcast a row
     total, terms, _ = assemble(ca.vertcat(*distances), ca.vertcat(*inverses), sigma,
                                ca.vertcat(*nf), ca.vertcat(*vs), ca.vertcat(*omegas), err,
@@ -256,12 +317,6 @@ def _cost_expression(z, params, config, sizes, smoothing):
 
 
 # --- packing the world into parameters (numpy) ----------------------------------------------
-
-
-def reach_radius(config: PlannerConfig) -> float:
-    """How far from the robot the horizon can matter, m: travel, footprint and bell width."""
-    return (config.robot.v_limit * config.horizon.duration + config.robot.bounding_radius
-            + 6.0 * max(config.cost.sigma_static, config.cost.sigma_dynamic))
 
 
 def pack_obstacles(state: RobotState, world, sizes: GraphSizes):
@@ -288,107 +343,147 @@ def pack_obstacles(state: RobotState, world, sizes: GraphSizes):
     return circles, velocities
 
 
-def _boundary_cells(grid):
-    """Centres (n, 2) of occupied cells with a free 4-neighbour (outside the grid is free)."""
-    occ = np.pad(grid.occupied, 1, constant_values=False)
-    inner = occ[1:-1, 1:-1]
-    interior = occ[:-2, 1:-1] & occ[2:, 1:-1] & occ[1:-1, :-2] & occ[1:-1, 2:]
-    iy, ix = np.nonzero(inner & ~interior)
-    return grid.origin + grid.resolution * (np.column_stack([ix, iy]) + 0.5)
+def pack_near_obstacles(poses, world, config: PlannerConfig, sizes: GraphSizes) -> np.ndarray:
+    """Per reference pose k the ``near_objects`` objects nearest to it at time ``k dt``.
+
+    Returns ((N+1), near_columns): each object's circles ``(x, y, radius)`` at that time, then
+    its velocity; padding objects sit FAR away.
+    """
+    n_poses, k_near, c_obj = poses.shape[0], sizes.near_objects, sizes.circles_per_object
+    circles = np.tile([FAR, FAR, 0.1], (n_poses, k_near, c_obj, 1))
+    velocities = np.zeros((n_poses, k_near, 2))
+    obstacles = list(world.obstacles)
+    if obstacles:
+        times = np.arange(n_poses) * config.horizon.dt
+        centers, radii, obj_vel, owner = world.stacked_obstacles()
+        predicted = centers[None] + obj_vel[None] * times[:, None, None]        # (N+1, Q, 2)
+        gap = np.linalg.norm(predicted - poses[:, None, :2], axis=-1) - radii      # (N+1, Q)
+        n_obj = len(obstacles)
+        per_object = np.full((n_poses, n_obj), np.inf)
+        np.minimum.at(per_object.T, owner, gap.T)
+        order = np.argsort(per_object, axis=1, kind="stable")[:, :k_near]
+        for k in range(n_poses):
+            for slot, index in enumerate(order[k]):
+                mine = np.flatnonzero(owner == index)
+                near = mine[np.argsort(gap[k, mine], kind="stable")[:c_obj]]
+                near = np.r_[near, np.repeat(near[:1], c_obj - len(near))]
+                circles[k, slot, :, :2] = predicted[k, near]
+                circles[k, slot, :, 2] = radii[near]
+                velocities[k, slot] = obstacles[index].velocity
+    return np.concatenate([circles.reshape(n_poses, -1), velocities.reshape(n_poses, -1)], 1)
 
 
-def pack_map(state: RobotState, world, config: PlannerConfig, sizes: GraphSizes) -> np.ndarray:
-    """Disks ``(x, y, radius)`` (P, 3) standing for the map near the robot, padded far away."""
-    disks = np.tile([FAR, FAR, 0.1], (sizes.map_disks, 1))
-    if world.grid is None:
-        return disks
-    res = world.grid.resolution
-    cells = _boundary_cells(world.grid)
-    position = np.array([state.x, state.y])
-    far_enough = reach_radius(config) + config.cost.ttc_range
-    cells = cells[np.linalg.norm(cells - position, axis=1) <= far_enough]
-    if len(cells) == 0:
-        return disks
-    radius = 0.5 * res
-    if len(cells) > sizes.map_disks:
-        # Merge cells on a two-cell lattice; the radius res grows the disks so that scallops
-        # between centres 2 res apart stay within res / 2 of the surface (e = s^2 / (16 r0)).
-        key = np.floor((cells - world.grid.origin) / (2 * res)).astype(np.int64)
-        _, first = np.unique(key, axis=0, return_index=True)
-        cells = cells[np.sort(first)]
-        radius = res
-    order = np.argsort(np.linalg.norm(cells - position, axis=1), kind="stable")
-    chosen = cells[order[:sizes.map_disks]]
-    disks[:len(chosen), :2] = chosen
-    disks[:len(chosen), 2] = radius
-    return disks
+_STENCIL = np.array([(0, 0), (1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1),
+                     (-1, -1)], dtype=float)
 
 
-def pack_navigation(state: RobotState, world, goal, config: PlannerConfig,
-                    sizes: GraphSizes) -> np.ndarray:
-    """Waypoints ``(x, y, NF)`` (W, 3): the goal without a map, else the NF descent path."""
-    goal = np.asarray(goal, dtype=float)
-    waypoints = np.tile([FAR, FAR, 2 * FAR], (sizes.nav_waypoints, 1))
-    nav = world.navigation(goal, config.robot.inflation_radius)
+def quadratic_models(function, points, step, gradient=None) -> np.ndarray:
+    """Local models ``(x, y, f, gx, gy, hxx, hxy, hyy)`` (P, 8) of ``function`` at ``points``.
+
+    Central differences with ``step`` (m) on a 3 x 3 stencil: ``f`` is the exact value, the
+    gradient ``gradient(points)`` when given (e.g. the navigation function's own, so the model
+    agrees with what the exact cost uses), else central differences.
+    """
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    values = function(points[:, None, :] + step * _STENCIL).reshape(-1, 9)
+    f0, fe, fw, fn, fs, fne, fse, fnw, fsw = values.T
+    grad = (gradient(points) if gradient is not None
+            else np.column_stack([(fe - fw) / (2 * step), (fn - fs) / (2 * step)]))
+    hxx = (fe - 2 * f0 + fw) / step**2
+    hyy = (fn - 2 * f0 + fs) / step**2
+    hxy = (fne - fse - fnw + fsw) / (4 * step**2)
+    return np.column_stack([points, f0, grad, hxx, hxy, hyy])
+
+
+def reference_poses(state: RobotState, config: PlannerConfig, reference=None) -> np.ndarray:
+    """Poses (N+1, 3) the local models are taken at: ``reference`` given as poses or as a z."""
+    if reference is None:
+        return np.tile(np.array(state.pose, dtype=float), (config.horizon.n_steps + 1, 1))
+    reference = np.asarray(reference, dtype=float)
+    if reference.shape == (4,):
+        return rollout(reference, state, config, EXACT).poses
+    return reference.reshape(config.horizon.n_steps + 1, 3)
+
+
+def _wall_planes(world, centres, headings, radii, reach) -> np.ndarray:
+    """Hit point and unit normal (P, 4) of the wall plane each ray meets."""
+    along = world.static_ray_distance(centres, headings, radii, reach)
+    direction = np.column_stack([np.cos(headings), np.sin(headings)])
+    # A miss: a plane FAR ahead facing the ray, whose 1/TTC is below 1e-3 1/s and gated off.
+    planes = np.column_stack([centres + FAR * direction, -direction])
+    hit = np.isfinite(along)
+    if np.any(hit):
+        direction = direction[hit]
+        points = centres[hit] + along[hit, None] * direction
+        step = world.grid.resolution
+        normal = quadratic_models(world.static_distance, points, step)[:, 3:5]
+        norm = np.linalg.norm(normal, axis=1, keepdims=True)
+        # A ray that starts in contact (along = 0) or a degenerate normal: face the ray.
+        normal = np.where(norm > 1e-6, normal / np.maximum(norm, 1e-12), -direction)
+        planes[hit, :2] = points
+        planes[hit, 2:] = normal
+    return planes
+
+
+def pack_models(poses, world, goal, config: PlannerConfig) -> tuple:
+    """``(nav_model, map_model, euclidean)`` around the reference ``poses`` (N+1, 3)."""
+    n_poses = poses.shape[0]
+    footprint = np.array(config.robot.footprint)
+    n_circles = len(footprint)
+    nav = world.navigation(np.asarray(goal, dtype=float), config.robot.inflation_radius)
     if nav.values is None:
-        waypoints[0] = [goal[0], goal[1], 0.0]
-        return waypoints
-    path = _descent_path(nav, np.array([state.x, state.y]), reach_radius(config) + 2.0)
-    # Evenly spaced along the path by arc length, the far end and the goal (when near) included.
-    along = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))]
-    n = sizes.nav_waypoints
-    points = path[np.searchsorted(along, np.linspace(0.0, along[-1], n), side="left")
-                  .clip(0, len(path) - 1)] if along[-1] > 0 else path[:1]
-    points = np.unique(points, axis=0)
-    waypoints[:len(points), :2] = points
-    waypoints[:len(points), 2] = nav.value(points)
-    return waypoints
+        nav_model = np.zeros((n_poses, NAV_COLUMNS))
+        nav_model[:, :2] = poses[:, :2]
+        euclidean = 1.0
+    else:
+        step = nav.working_grid.resolution
+        nav_model = quadratic_models(nav.value, poses[:, :2], step, nav.gradient)
+        euclidean = 0.0
+    cos, sin = np.cos(poses[:, 2:3]), np.sin(poses[:, 2:3])
+    centres = np.stack([poses[:, 0:1] + cos * footprint[:, 0] - sin * footprint[:, 1],
+                        poses[:, 1:2] + sin * footprint[:, 0] + cos * footprint[:, 1]],
+                       -1).reshape(-1, 2)
+    models = np.zeros((n_poses * n_circles, MAP_COLUMNS))
+    if world.grid is None:
+        models[:, :2] = centres
+        models[:, 2] = FAR
+        models[:, 8:] = _wall_planes(world, centres, np.repeat(poses[:, 2], n_circles),
+                                     np.tile(footprint[:, 2], n_poses), 0.0)
+    else:
+        models[:, :8] = quadratic_models(world.static_distance, centres, world.grid.resolution)
+        headings = np.repeat(poses[:, 2], n_circles)
+        radii = np.tile(footprint[:, 2], n_poses)
+        models[:, 8:] = _wall_planes(world, centres, headings, radii, config.cost.ttc_range)
+    return nav_model, models.reshape(n_poses, -1), euclidean
 
 
-def _descent_path(nav, start, length):
-    """Steepest 8-neighbour descent of the NF table from ``start`` for up to ``length`` m."""
-    work, values = nav.working_grid, nav.values
-    res = work.resolution
-    ny, nx = values.shape
-    cell = np.floor((start - work.origin) / res).astype(int)
-    ix, iy = int(np.clip(cell[0], 0, nx - 1)), int(np.clip(cell[1], 0, ny - 1))
-    path = [start]
-    travelled = 0.0
-    steps = [(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if dx or dy]
-    while travelled < length:
-        best, best_value = None, values[iy, ix]
-        for dx, dy in steps:
-            jx, jy = ix + dx, iy + dy
-            if 0 <= jx < nx and 0 <= jy < ny and values[jy, jx] < best_value - 1e-12:
-                best, best_value = (jx, jy), values[jy, jx]
-        if best is None:
-            break
-        ix, iy = best
-        point = work.origin + res * (np.array([ix, iy]) + 0.5)
-        travelled += float(np.linalg.norm(point - path[-1]))
-        path.append(point)
-    if np.linalg.norm(path[-1] - nav.goal) < length - travelled + res:
-        path.append(nav.goal.copy())
-    return np.array(path)
-
-
-def pack_parameters(state: RobotState, world, goal, config: PlannerConfig,
-                    sizes: GraphSizes) -> dict:
+def pack_parameters(state: RobotState, world, goal, config: PlannerConfig, sizes: GraphSizes,
+                    reference=None) -> dict:
     """Every parameter block of :func:`build_cost_function` from ``(state, world, goal)``.
 
-    The measured ``(v, omega)`` is clamped to the limits (the law's rate limits start from it).
+    Parameters
+    ----------
+    reference : ndarray (4,) or (N+1, 3), optional
+        The trajectory the local map and NF models are taken along: a z (rolled out exactly)
+        or its poses. Default: the robot standing still.
+
     Returns a dict over :data:`PARAMETER_NAMES` of numpy arrays shaped by
-    :func:`parameter_shapes`.
+    :func:`parameter_shapes`. The measured ``(v, omega)`` is clamped to the limits.
     """
     v0, omega0 = clamp_measured(state, config)
     circles, velocities = pack_obstacles(state, world, sizes)
+    poses = reference_poses(state, config, reference)
+    nav_model, map_model, euclidean = pack_models(poses, world, goal, config)
+    near = pack_near_obstacles(poses, world, config, sizes)
+    goal = np.asarray(goal, dtype=float).reshape(2)
     return {
         "state": np.array([state.x, state.y, state.phi, v0, omega0]),
-        "goal": np.asarray(goal, dtype=float).reshape(2),
+        "goal": np.array([goal[0], goal[1], euclidean]),
         "obstacle_circles": circles,
         "obstacle_velocities": velocities,
-        "map_disks": pack_map(state, world, config, sizes),
-        "nav_waypoints": pack_navigation(state, world, goal, config, sizes),
+        "near_obstacles": near,
+        "nav_model": nav_model,
+        "map_model": map_model,
     }
 
 
@@ -403,6 +498,6 @@ def is_finite_parameters(params: dict) -> bool:
     return all(np.all(np.isfinite(params[n])) for n in PARAMETER_NAMES)
 
 
-__all__ = ["FAR", "GraphSizes", "PARAMETER_NAMES", "build_cost_function", "flatten_parameters",
-           "pack_parameters", "parameter_shapes", "reach_radius", "navigation_value",
-           "is_finite_parameters"]
+__all__ = ["FAR", "MODEL_RADIUS", "GraphSizes", "PARAMETER_NAMES", "build_cost_function",
+           "cost_expression", "flatten_parameters", "pack_parameters", "pack_models",
+           "parameter_shapes", "quadratic_models", "reference_poses", "is_finite_parameters"]
