@@ -189,14 +189,20 @@ class Planner:
             return None
         return self._plan_from(ev, 0, "docked", True, "docked at the goal", 0, ())
 
-    def _verify(self, records, state, world, goal) -> tuple:
-        """Exact cost of every start's result: the verdict on the NLP."""
+    def _verify(self, original, state, world, goal) -> tuple:
+        """Exact cost of every start's result: the verdict on the NLP.
+
+        Records that arrive with a finite ``exact_cost`` (the NLP solver costs its screened
+        starts and results with the same :func:`evaluate_batch`) are not costed twice.
+        """
+        records = [r for r in original if not math.isfinite(r.exact_cost)]
         finite = [r for r in records if np.all(np.isfinite(r.z))]
         costs = {}
         if finite:
             ev = evaluate_batch(np.array([r.z for r in finite]), state, world, goal, self.config)
             costs = {id(r): float(c) for r, c in zip(finite, ev.costs.total)}
-        return tuple(_replace(r, exact_cost=costs.get(id(r), math.nan)) for r in records)
+        return tuple(r if math.isfinite(r.exact_cost)
+                     else _replace(r, exact_cost=costs.get(id(r), math.nan)) for r in original)
 
     def _choose_nlp(self, records, state, world, goal) -> Plan | None:
         usable = [r for r in records if math.isfinite(r.exact_cost)]
