@@ -8,7 +8,8 @@ obstacles (one rectangle per horizontal run of occupied cells). ORCA assumes eve
 half of the avoidance effort, which non-reacting pedestrians do not: that is the baseline as
 usually run (CrowdNav's ORCA), not something we correct.
 
-The holonomic velocity ``u`` that ORCA returns is turned into unicycle commands in the simplest
+The robot's ORCA radius is the bounding radius plus ``SAFETY_MARGIN`` (0.1 m). The holonomic
+velocity ``u`` that ORCA returns is turned into unicycle commands in the simplest
 way: with the heading error ``e = wrap(angle(u) - phi)``, ``omega = clip(GAIN_TURN * e,
 +-omega_limit)`` and ``v = |u| max(cos e, 0)`` (drive only the part of ``u`` along the heading;
 turn in place when ``u`` points sideways or behind), then the robot's acceleration and turn-rate
@@ -36,6 +37,9 @@ GAIN_TURN = 2.0
 """Proportional gain from heading error to turn rate, 1/s (our choice)."""
 NEIGHBOR_DIST = 10.0
 """ORCA neighbour search distance, m (RVO2 examples use 15 at 1-2 m/s; our choice)."""
+SAFETY_MARGIN = 0.1
+"""Added to the robot's ORCA radius, m: ORCA plans to graze at zero gap, which the unicycle's
+lag and the pedestrians' non-reciprocity turn into contact (CrowdNav's ``safety_space``)."""
 PARKED = 1.0e6
 """Where unused ORCA agent slots wait, m."""
 MAX_NEIGHBORS = 20
@@ -127,8 +131,10 @@ class OrcaPlan:
 class OrcaPlanner:
     """ORCA with unicycle conversion; ``plan(state, world, goal)`` like :class:`Planner`."""
 
-    def __init__(self, config: PlannerConfig | None = None, solver: SolverConfig | None = None):
+    def __init__(self, config: PlannerConfig | None = None, solver: SolverConfig | None = None,
+                 safety_margin: float = SAFETY_MARGIN):
         self.pyrvo = require_pyrvo()
+        self.safety_margin = float(safety_margin)
         self.config = PlannerConfig() if config is None else config
         self._grid = None
         self._sim = None
@@ -163,7 +169,7 @@ class OrcaPlanner:
         sim = self._sim
         heading = (math.cos(state.phi), math.sin(state.phi))
         centers, radii, velocities, _ = world.stacked_obstacles()
-        agents = [((state.x, state.y), robot.bounding_radius, robot.v_limit,
+        agents = [((state.x, state.y), robot.bounding_radius + self.safety_margin, robot.v_limit,
                    (state.v * heading[0], state.v * heading[1]),
                    tuple(self.preferred_velocity(state, goal)))]
         for c, r, v in zip(centers, radii, velocities):
