@@ -280,9 +280,13 @@ def cost_expression(z, params, config, sizes, smoothing):
     law_step = step_function(config, smoothing)
     geometry = pose_function(config, sizes, smoothing)
     target = ca.vertcat(*target_pose([z[0], z[1], z[2]], [state[0], state[1], state[2]], CASADI))
+    # SQP iterates can leave the box by the QP's tolerance (seen: v_max = -2.8e-3 from qrqp);
+    # a negative v_max makes the law's smooth speed cap NaN (a negative base to the power 1/t)
+    # and with it the Hessian ("nlp_hess_l ... NaN detected"). The cost is flat below 0.
+    v_max = ca.fmax(z[3], 0.0)
     carry, poses, vs, omegas = state, [state[:3]], [], []
     for _ in range(n_steps):
-        carry, v, omega = law_step(carry, target, z[3])
+        carry, v, omega = law_step(carry, target, v_max)
         poses.append(carry[:3])
         vs.append(v)
         omegas.append(omega)
