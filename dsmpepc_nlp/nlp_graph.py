@@ -42,7 +42,11 @@ Build: 0.7 s (default), 1.0 s (fast).
 Measured (20 cycles, seed 0): plan time median 565 ms / p95 800 ms (IPOPT; was 4313 ms),
 fast (sqpmethod + qrqp) 308 / 560 ms (was 892 ms); the sampler needs a median of 16384 samples
 (2.8 s) to match the IPOPT plan's exact cost within 0.01, so the ratio default/sampling at
-equal cost is 0.20. Where the time goes (per plan): 3 starts x 1-2 solves x 10-40 IPOPT
+equal cost is 0.20. Cross-check against 4096 samples (``crosscheck(demo_cycles(cfg, 20, 0),
+cfg, SolverConfig())``): gap median -0.33, p95 +0.15, 90 % of cycles within 0.01 (was +0.23
+median, 0 %); the fast configuration is not yet usable for quality: gap median +1.46, 0 %
+within 0.01 (its SQP solves barely improve on the screened starts). Where the time goes
+(per plan): 3 starts x 1-2 solves x 10-40 IPOPT
 iterations; exact Hessian evaluations are ~45 % of it, f and gradient ~15 %, packing the
 models 4-8 ms per solve (ray marches), exact screening of the ~75 starts ~15 ms. The targets
 (20 ms default, 3 ms fast) are missed: the iteration counts (the bells of the cost are sharp
