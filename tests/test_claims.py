@@ -26,7 +26,18 @@ def run(name, variant):
     return episode
 
 
-@pytest.mark.parametrize("name", ["t-corridor", "narrow-corridor"])
+T_CORRIDOR_SEEN = (
+    "does not reproduce: with the sampling solver (4096 samples, seed 0) DS-MPEPC creeps up the "
+    "main corridor and stops beside the side corridor's entrance (deadlock at 23.8 s), its "
+    "terminal term near -0.55 and progress near 0: the stop-facing-free-space hazard of "
+    "METHOD.md section 5. MPEPC deadlocks as the paper says."
+)
+
+
+@pytest.mark.parametrize("name", [
+    pytest.param("t-corridor", marks=pytest.mark.xfail(reason=T_CORRIDOR_SEEN, strict=False)),
+    "narrow-corridor",
+])
 def test_mpepc_deadlocks_where_ds_mpepc_succeeds(name):
     """Paper Figs. 4 and 5: MPEPC deadlocks, DS-MPEPC reaches the goal."""
     mpepc, ds = run(name, "mpepc"), run(name, "ds-mpepc")
