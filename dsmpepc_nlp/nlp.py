@@ -27,6 +27,7 @@ import casadi as ca
 import numpy as np
 
 from .config import PlannerConfig, RobotState, SolverConfig
+from .newton import minimize
 from .nlp_graph import (
     PARAMETER_NAMES,
     GraphSizes,
@@ -176,10 +177,19 @@ class NlpSolver:
         nlp = {"x": z, "p": flat, "f": self.cost(z, *blocks)[0]}
         extra = (_jit_options(config, self.sizes, jit_directory)
                  if self.solver_config.jit else {})
-        plugin, options = _plugin_options(self.solver_config, warm=False)
+        self._newton = None
+        self._cold = self._warm = None
+        plugin = self.solver_config.method
         try:
-            self._cold = ca.nlpsol("dsmpepc_cold", plugin, nlp, {**options, **extra})
-            self._warm = self._cold
+            if plugin == "newton":
+                hessian, gradient = ca.hessian(nlp["f"], z)
+                self._newton = (
+                    ca.Function("dsmpepc_f", [z, flat], [nlp["f"]], extra),
+                    ca.Function("dsmpepc_fgh", [z, flat], [nlp["f"], gradient, hessian], extra))
+            else:
+                _, options = _plugin_options(self.solver_config, warm=False)
+                self._cold = self._warm = ca.nlpsol("dsmpepc_cold", plugin, nlp,
+                                                    {**options, **extra})
             if plugin == "ipopt":
                 _, warm_options = _plugin_options(self.solver_config, warm=True)
                 self._warm = ca.nlpsol("dsmpepc_warm", plugin, nlp, {**warm_options, **extra})
@@ -314,6 +324,8 @@ class NlpSolver:
         return np.where(self.upper - z < near, self.upper, z)
 
     def _run(self, z_start, p, lam_x) -> dict:
+        if self._newton is not None:
+            return self._run_newton(z_start, p)
         warm = lam_x is not None
         solver = self._warm if warm else self._cold
         args = {"x0": z_start, "p": p, "lbx": self.lower, "ubx": self.upper}
@@ -344,3 +356,34 @@ class NlpSolver:
         return {"z": self._snap(z), "status": status, "usable": usable, "nit": nit,
                 "cost": cost, "lam_x": np.asarray(result["lam_x"], dtype=float).reshape(-1),
                 "stats": timing}
+
+    def _run_newton(self, z_start, p) -> dict:
+        """One trust-region Newton solve (:func:`~dsmpepc_nlp.newton.minimize`)."""
+        f_only, fgh = self._newton
+        p = ca.DM(p)
+        timing = {"t_f": 0.0, "t_fgh": 0.0}
+
+        def f(z):
+            started = time.perf_counter()
+            value = float(f_only(z, p))
+            timing["t_f"] += time.perf_counter() - started
+            return value
+
+        def f_g_h(z):
+            started = time.perf_counter()
+            value, gradient, hessian = fgh(z, p)
+            timing["t_fgh"] += time.perf_counter() - started
+            return (float(value), np.asarray(gradient, dtype=float).reshape(-1),
+                    np.asarray(hessian, dtype=float))
+
+        started = time.perf_counter()
+        result = minimize(f, f_g_h, z_start, self.lower, self.upper,
+                          max_iter=self.solver_config.max_iter, tol=self.solver_config.tol)
+        timing.update({"t_wall_total": time.perf_counter() - started, "iter_count": result.nit,
+                       "nfev": result.nfev, "nhev": result.nhev})
+        if not (np.all(np.isfinite(result.x)) and math.isfinite(result.fun)):
+            return {"z": None, "status": f"non-finite result ({result.status})",
+                    "nit": result.nit, "stats": timing}
+        return {"z": self._snap(result.x), "status": result.status,
+                "usable": result.status != "non-finite", "nit": result.nit,
+                "cost": result.fun, "lam_x": None, "stats": timing}

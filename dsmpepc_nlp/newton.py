@@ -1,0 +1,146 @@
+"""A trust-region Newton method on a small box: the NLP solver when z has only 4 variables.
+
+With 4 variables, ``nlpsol``'s machinery (IPOPT's barrier, the SQP's QP and merit line search)
+costs more than it buys: the whole step problem ``min g.d + d'Hd/2`` over the box intersected
+with a trust region is solved exactly here by enumerating the 3^n faces of the box (batched
+numpy, ~0.1 ms), so an indefinite Hessian needs no convexification, and every accepted step
+decreases the objective (no non-monotone merit function). The objective, its gradient and its
+exact Hessian come from one CasADi ``Function`` call; a trial point costs one objective call.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+_FACES = {}
+
+ETA = 0.05
+"""Smallest ratio of actual to predicted decrease for a step to be accepted."""
+SHRINK, GROW = 0.25, 2.0
+"""Trust radius factors after a poor (ratio < 0.25) and a very good (ratio > 0.75) step."""
+
+
+def _faces(n: int):
+    """Per face of the n-box: which variables are free, at the lower, at the upper bound."""
+    if n not in _FACES:
+        states = np.array(list(itertools.product((0, 1, 2), repeat=n)))  # 0 free, 1 low, 2 up
+        _FACES[n] = (states == 0, states == 1, states == 2)
+    return _FACES[n]
+
+
+def box_qp(g, H, lower, upper) -> np.ndarray:
+    """Global minimiser of ``g.d + d'Hd/2`` over ``lower <= d <= upper`` (small n, any H).
+
+    The minimum of a quadratic over a box is a stationary point of its restriction to the
+    relative interior of some face on which the reduced Hessian is positive semidefinite; every
+    face with a positive definite reduced Hessian (and every vertex) is solved and the best
+    feasible point kept. A singular reduced Hessian attains its minimum on a lower face too.
+    """
+    g, H = np.asarray(g, dtype=float), np.asarray(H, dtype=float)
+    lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
+    n = g.size
+    free, at_low, at_up = _faces(n)
+    fixed_value = np.where(at_low, lower, np.where(at_up, upper, 0.0))       # (F, n)
+    both = free[:, :, None] & free[:, None, :]
+    reduced = np.where(both, H, 0.0) + np.where(~free, 1.0, 0.0)[:, :, None] * np.eye(n)
+    scale = max(1.0, float(np.max(np.abs(H))))
+    definite = np.all(np.linalg.eigvalsh(reduced) > 1e-10 * scale, axis=1)
+    # Free rows: H_FF d_F = -(g_F + H_F,fixed d_fixed); fixed rows: d = bound.
+    rhs = np.where(free, -(g + fixed_value @ H.T), fixed_value)
+    system = np.where(free[:, :, None], np.where(free[:, None, :], H, 0.0), 0.0)
+    system = system + np.where(~free, 1.0, 0.0)[:, :, None] * np.eye(n)
+    d = np.zeros_like(fixed_value)
+    d[definite] = np.linalg.solve(system[definite], rhs[definite][..., None])[..., 0]
+    slack = 1e-9 * (1.0 + np.abs(upper - lower))
+    ok = definite & np.all((d >= lower - slack) & (d <= upper + slack), axis=1)
+    d = np.clip(d, lower, upper)
+    value = d @ g + 0.5 * np.einsum("fi,ij,fj->f", d, H, d)
+    value = np.where(ok, value, np.inf)
+    return d[int(np.argmin(value))] if np.any(ok) else np.zeros(n)
+
+
+@dataclass(frozen=True)
+class NewtonResult:
+    """Where :func:`minimize` stopped: ``x``, ``fun``, ``nit`` (steps tried), ``status``,
+    ``success`` (converged), evaluations of the objective alone (``nfev``) and with its
+    derivatives (``nhev``)."""
+
+    x: np.ndarray
+    fun: float
+    nit: int
+    status: str
+    success: bool
+    nfev: int
+    nhev: int
+
+
+def minimize(f, fgh, x0, lower, upper, *, radius=0.25, max_iter=40, tol=1e-5,
+             min_radius=1e-4) -> NewtonResult:
+    """Minimise a smooth ``f`` over a box by trust-region Newton steps.
+
+    Parameters
+    ----------
+    f : callable
+        ``f(x) -> float``.
+    fgh : callable
+        ``fgh(x) -> (f, gradient (n,), Hessian (n, n))``.
+    x0, lower, upper : array_like, (n,)
+        Start (clipped into the box) and bounds.
+    radius : float
+        Initial trust radius as a share of each variable's range (max norm).
+    max_iter : int
+        Steps tried at most.
+    tol : float
+        Converged when a step inside the trust region predicts a decrease below ``tol``.
+    min_radius : float
+        Stop when the trust radius shrinks below this share of the ranges.
+
+    Returns
+    -------
+    NewtonResult
+        ``status`` is ``converged``, ``max_iter``, ``small_radius`` or ``non-finite``.
+    """
+    lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
+    span = np.where(upper > lower, upper - lower, 1.0)
+    x = np.clip(np.asarray(x0, dtype=float), lower, upper)
+    fx, g, H = fgh(x)
+    nfev, nhev = 0, 1
+    if not (math.isfinite(fx) and np.all(np.isfinite(g)) and np.all(np.isfinite(H))):
+        return NewtonResult(x, fx, 0, "non-finite", False, nfev, nhev)
+    status, nit = "max_iter", 0
+    while nit < max_iter:
+        nit += 1
+        step_low = np.maximum(lower - x, -radius * span)
+        step_up = np.minimum(upper - x, radius * span)
+        d = box_qp(g, H, step_low, step_up)
+        predicted = -(g @ d + 0.5 * d @ H @ d)
+        on_edge = np.any(np.abs(np.abs(d) - radius * span) < 1e-9 * span)
+        if predicted <= tol and (not on_edge or predicted <= 1e-3 * tol):
+            status = "converged"
+            break
+        trial = x + d
+        f_trial = f(trial)
+        nfev += 1
+        ratio = (fx - f_trial) / predicted if math.isfinite(f_trial) else -math.inf
+        if ratio < 0.25:
+            radius = SHRINK * max(np.max(np.abs(d) / span), 1e-12)
+        elif ratio > 0.75 and on_edge:
+            radius = min(GROW * radius, 1.0)
+        if ratio > ETA:
+            f_new, g_new, H_new = fgh(trial)
+            nhev += 1
+            if math.isfinite(f_new) and np.all(np.isfinite(g_new)) and np.all(np.isfinite(H_new)):
+                x, fx, g, H = trial, f_new, g_new, H_new
+            else:
+                radius *= SHRINK
+        if radius < min_radius:
+            status = "small_radius"
+            break
+    return NewtonResult(x, float(fx), nit, status, status == "converged", nfev, nhev)
+
+
+__all__ = ["NewtonResult", "box_qp", "minimize"]
