@@ -20,7 +20,7 @@ _FACES = {}
 
 ETA = 0.05
 """Smallest ratio of actual to predicted decrease for a step to be accepted."""
-SHRINK, GROW = 0.25, 2.0
+SHRINK, GROW = 0.25, 4.0
 """Trust radius factors after a poor (ratio < 0.25) and a very good (ratio > 0.75) step."""
 
 
@@ -43,6 +43,13 @@ def box_qp(g, H, lower, upper) -> np.ndarray:
     g, H = np.asarray(g, dtype=float), np.asarray(H, dtype=float)
     lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
     n = g.size
+    try:  # the common case: a convex model whose minimiser lies inside the box
+        factor = np.linalg.cholesky(H)
+        d = -np.linalg.solve(factor.T, np.linalg.solve(factor, g))
+        if np.all(d >= lower) and np.all(d <= upper):
+            return d
+    except np.linalg.LinAlgError:
+        pass
     free, at_low, at_up = _faces(n)
     fixed_value = np.where(at_low, lower, np.where(at_up, upper, 0.0))       # (F, n)
     both = free[:, :, None] & free[:, None, :]

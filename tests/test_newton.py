@@ -1,0 +1,74 @@
+"""The trust-region Newton method on a box: exact step problem, convergence, and in the NLP."""
+
+import numpy as np
+import pytest
+
+from dsmpepc_nlp import config as config_module
+from dsmpepc_nlp.newton import box_qp, minimize
+
+
+@pytest.mark.parametrize("convex", [False, True])
+def test_box_qp_is_the_global_minimum_of_the_box(convex):
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        a = rng.normal(size=(4, 4))
+        hessian = a @ a.T + 0.1 * np.eye(4) if convex else a + a.T
+        g = rng.normal(size=4)
+        lower, upper = -rng.random(4) * 2.0, rng.random(4) * 2.0
+        d = box_qp(g, hessian, lower, upper)
+        assert np.all(d >= lower) and np.all(d <= upper)
+        samples = lower + rng.random((20000, 4)) * (upper - lower)
+        model = samples @ g + 0.5 * np.einsum("si,ij,sj->s", samples, hessian, samples)
+        assert d @ g + 0.5 * d @ hessian @ d <= model.min() + 1e-12
+
+
+def _rosenbrock(x):
+    return (1 - x[0]) ** 2 + 100 * (x[1] - x[0] ** 2) ** 2
+
+
+def _rosenbrock_fgh(x):
+    g = np.array([-2 * (1 - x[0]) - 400 * x[0] * (x[1] - x[0] ** 2), 200 * (x[1] - x[0] ** 2)])
+    h = np.array([[2 - 400 * (x[1] - 3 * x[0] ** 2), -400 * x[0]], [-400 * x[0], 200.0]])
+    return _rosenbrock(x), g, h
+
+
+def test_minimize_converges_inside_and_stops_on_an_active_bound():
+    inside = minimize(_rosenbrock, _rosenbrock_fgh, [-1.2, 1.0], [-2, -2], [2, 2],
+                      max_iter=100, tol=1e-12)
+    assert inside.success and np.allclose(inside.x, [1.0, 1.0], atol=1e-5)
+    bounded = minimize(_rosenbrock, _rosenbrock_fgh, [-1.2, 1.0], [-2, -2], [0.5, 2],
+                       max_iter=100, tol=1e-12)
+    assert bounded.x[0] == pytest.approx(0.5) and bounded.x[1] == pytest.approx(0.25, abs=1e-4)
+
+
+def test_minimize_never_accepts_an_increase():
+    values = []
+
+    def f(x):
+        values.append(_rosenbrock(x))
+        return values[-1]
+
+    result = minimize(f, _rosenbrock_fgh, [-1.2, 1.0], [-2, -2], [2, 2], max_iter=30)
+    assert result.fun <= _rosenbrock(np.array([-1.2, 1.0]))
+
+
+@pytest.mark.skipif("newton" not in config_module.SOLVER_METHODS,
+                    reason="SolverConfig does not offer method='newton' yet")
+def test_newton_nlp_solver_records_are_finite_and_in_the_box():
+    from dsmpepc_nlp.config import PlannerConfig, RobotState, SolverConfig
+    from dsmpepc_nlp.nlp import NlpSolver
+    from dsmpepc_nlp.nlp_graph import GraphSizes
+    from dsmpepc_nlp.sampling import structured_starts
+    from dsmpepc_nlp.world import DynamicObstacle, World
+
+    cfg = PlannerConfig()
+    solver = NlpSolver(cfg, SolverConfig(method="newton", max_iter=15),
+                       GraphSizes(max_objects=3, near_objects=2), n_screen=4)
+    world = World(None, [DynamicObstacle.pedestrian([2.5, 0.6], [-0.4, 0.0])])
+    state, goal = RobotState(0.0, 0.0, 0.0), np.array([5.0, 0.0])
+    records = solver.solve(state, world, goal, structured_starts(state, goal, cfg))
+    solved = [r for r in records if r.status != "screened"]
+    assert len(solved) == solver.n_solved
+    for record in solved:
+        assert np.all(np.isfinite(record.z)) and np.isfinite(record.exact_cost)
+        assert np.all(record.z >= np.array(cfg.z_lower)) and np.all(record.z <= cfg.z_upper)
