@@ -25,10 +25,19 @@ SHRINK, GROW = 0.25, 4.0
 
 
 def _faces(n: int):
-    """Per face of the n-box: which variables are free, at the lower, at the upper bound."""
+    """The 3^n faces of the n-box and the 2^n sets of free variables they use.
+
+    Returns ``(at_low, at_up, subset)`` per face (which variables sit on the lower / upper
+    bound, the index of its free set) and ``(both, pad)`` per free set (the mask of the free
+    block of a matrix, and the identity on the fixed variables).
+    """
     if n not in _FACES:
         states = np.array(list(itertools.product((0, 1, 2), repeat=n)))  # 0 free, 1 low, 2 up
-        _FACES[n] = (states == 0, states == 1, states == 2)
+        masks = np.array(list(itertools.product((False, True), repeat=n)))
+        subset = ((states == 0) * (2 ** np.arange(n)[::-1])).sum(axis=1)
+        both = masks[:, :, None] & masks[:, None, :]
+        pad = (~masks)[:, :, None] * np.eye(n)
+        _FACES[n] = (states == 1, states == 2, subset, both, pad)
     return _FACES[n]
 
 
@@ -39,6 +48,7 @@ def box_qp(g, H, lower, upper) -> np.ndarray:
     relative interior of some face on which the reduced Hessian is positive semidefinite; every
     face with a positive definite reduced Hessian (and every vertex) is solved and the best
     feasible point kept. A singular reduced Hessian attains its minimum on a lower face too.
+    The 2^n reduced Hessians are inverted once and shared by the 3^n faces (~0.08 ms, n = 4).
     """
     g, H = np.asarray(g, dtype=float), np.asarray(H, dtype=float)
     lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
@@ -50,24 +60,21 @@ def box_qp(g, H, lower, upper) -> np.ndarray:
             return d
     except np.linalg.LinAlgError:
         pass
-    free, at_low, at_up = _faces(n)
-    fixed_value = np.where(at_low, lower, np.where(at_up, upper, 0.0))       # (F, n)
-    both = free[:, :, None] & free[:, None, :]
-    reduced = np.where(both, H, 0.0) + np.where(~free, 1.0, 0.0)[:, :, None] * np.eye(n)
+    at_low, at_up, subset, both, pad = _faces(n)
+    fixed = np.where(at_low, lower, np.where(at_up, upper, 0.0))              # (3^n, n)
+    reduced = np.where(both, H, 0.0) + pad                                    # (2^n, n, n)
     scale = max(1.0, float(np.max(np.abs(H))))
-    definite = np.all(np.linalg.eigvalsh(reduced) > 1e-10 * scale, axis=1)
-    # Free rows: H_FF d_F = -(g_F + H_F,fixed d_fixed); fixed rows: d = bound.
-    rhs = np.where(free, -(g + fixed_value @ H.T), fixed_value)
-    system = np.where(free[:, :, None], np.where(free[:, None, :], H, 0.0), 0.0)
-    system = system + np.where(~free, 1.0, 0.0)[:, :, None] * np.eye(n)
-    d = np.zeros_like(fixed_value)
-    d[definite] = np.linalg.solve(system[definite], rhs[definite][..., None])[..., 0]
+    definite = (np.linalg.eigvalsh(reduced)[:, 0] > 1e-10 * scale)[subset]
+    inverse = np.linalg.inv(reduced) * both       # zero outside the free block
+    # Free variables: H_FF d_F = -(g_F + H_F,fixed d_fixed); fixed ones stay on their bound.
+    d = fixed - np.einsum("fij,fj->fi", inverse[subset], g + fixed @ H)
     slack = 1e-9 * (1.0 + np.abs(upper - lower))
     ok = definite & np.all((d >= lower - slack) & (d <= upper + slack), axis=1)
+    if not np.any(ok):
+        return np.zeros(n)
     d = np.clip(d, lower, upper)
-    value = d @ g + 0.5 * np.einsum("fi,ij,fj->f", d, H, d)
-    value = np.where(ok, value, np.inf)
-    return d[int(np.argmin(value))] if np.any(ok) else np.zeros(n)
+    value = np.where(ok, d @ g + 0.5 * np.einsum("fi,ij,fj->f", d, H, d), np.inf)
+    return d[int(np.argmin(value))]
 
 
 @dataclass(frozen=True)
