@@ -416,7 +416,14 @@ def pack_near_obstacles(poses, world, config: PlannerConfig, sizes: GraphSizes) 
         per_object = np.full((n_poses, n_obj), np.inf)
         np.minimum.at(per_object.T, owner, gap.T)
         order = np.argsort(per_object, axis=1, kind="stable")[:, :k_near]
-        for k in range(n_poses):
+        if len(owner) == n_obj:      # one circle per object (pedestrians): no loop needed
+            rows = np.arange(n_poses)[:, None]
+            m = order.shape[1]
+            circles[:, :m, :, :2] = predicted[rows, order][:, :, None, :]
+            circles[:, :m, :, 2] = radii[order][:, :, None]
+            velocities[:, :m] = obj_vel[order]
+            order = order[:0]
+        for k in range(order.shape[0]):
             for slot, index in enumerate(order[k]):
                 mine = np.flatnonzero(owner == index)
                 near = mine[np.argsort(gap[k, mine], kind="stable")[:c_obj]]
