@@ -39,18 +39,23 @@ only 1.5x faster, against a 5 s build budget. IPOPT limited-memory took as long 
 (more line-search evaluations) with a similar cost, so the exact Hessian stays the default.
 Build: 0.7 s (default), 1.0 s (fast).
 
-Measured (20 cycles, seed 0): plan time median 565 ms / p95 800 ms (IPOPT; was 4313 ms),
-fast (sqpmethod + qrqp) 308 / 560 ms (was 892 ms); the sampler needs a median of 16384 samples
-(2.8 s) to match the IPOPT plan's exact cost within 0.01, so the ratio default/sampling at
-equal cost is 0.20. Cross-check against 4096 samples (``crosscheck(demo_cycles(cfg, 20, 0),
-cfg, SolverConfig())``): gap median -0.33, p95 +0.15, 90 % of cycles within 0.01 (was +0.23
-median, 0 %); the fast configuration is not yet usable for quality: gap median +1.46, 0 %
-within 0.01 (its SQP solves barely improve on the screened starts). Where the time goes
-(per plan): 3 starts x 1-2 solves x 10-40 IPOPT
-iterations; exact Hessian evaluations are ~45 % of it, f and gradient ~15 %, packing the
-models 4-8 ms per solve (ray marches), exact screening of the ~75 starts ~15 ms. The targets
-(20 ms default, 3 ms fast) are missed: the iteration counts (the bells of the cost are sharp
-at sigma = 0.1-0.2 m and s_ttg = 1e-3) times ~2.7 ms per iteration set the floor.
+Measured (20 cycles, seed 0; the machine is shared, so compare rows of one run): earlier
+runs gave IPOPT 565 / 800 ms (median / p95 per plan; was 4313 ms) and fast (sqpmethod + qrqp)
+308 / 560 ms. Re-measured on a quieter machine with ``python -m dsmpepc_nlp.benchmark``:
+IPOPT 224 / 454 ms, sqpmethod 136 / 172 ms, sampling at equal cost 876 ms (ratio 0.26). The
+trust-region ``newton`` method (``nlp.NlpSolver`` with ``SolverConfig(method="newton",
+tol=1e-3)``, CPU time per plan, same cycles): 55 / 80 ms, against IPOPT 212 / 422 ms in the
+same run. Cross-check against 4096 samples (``crosscheck(demo_cycles(cfg, 20, 0), cfg,
+solver)``), gap median / p95 / share within 0.01: IPOPT -0.33 / +0.15 / 90 % (was +0.23
+median, 0 %); newton -0.34 / -0.07 / 95 % (the miss: cycle 0, +0.03, no warm start);
+sqpmethod +1.46 / 0 % with CasADi's default non-monotone line search, -0.20 / +1.42 / 65 %
+with a monotone one. Where the time goes in a newton plan (quiet machine): 2 starts x 1-2
+solves x 10-15 steps, each one gradient + forward-difference Hessian (0.65 ms) and one trial
+objective (0.07 ms) and the box QP (0.07 ms); packing the models 2 ms per solve (the ray
+marches 0.5 ms; the per-pose nearest objects were 1 ms, now 0.06); exact costing of the ~75
+starts 4.4 ms, of a single z 1.8 ms (numpy per-step overhead), a single rollout 0.9 ms. The
+targets (20 ms default, 3 ms fast) are still missed: ~30 Newton steps per plan at ~0.9 ms plus
+~15 ms of numpy packing and exact costing set the floor.
 """
 
 from __future__ import annotations
