@@ -27,6 +27,7 @@ region of ``newton`` brings it to 95 %.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import math
 import os
@@ -143,6 +144,60 @@ _DISTINCT = 0.05
 """Two starts closer than this share of the box (max norm) count as the same start."""
 
 
+def _newton_functions(z, flat, objective, extra, span) -> tuple:
+    """``(f, fgh)`` for :func:`~dsmpepc_nlp.newton.minimize`: the objective alone, and
+    objective, gradient and Hessian (``NEWTON_HESSIAN``: ``exact`` SX, or ``differences``
+    of the gradient at 5 points in one mapped call)."""
+    f = ca.Function("dsmpepc_f", [z, flat], [objective], extra)
+    if NEWTON_HESSIAN == "exact":
+        hessian, gradient = ca.hessian(objective, z)
+        return f, ca.Function("dsmpepc_fgh", [z, flat], [objective, gradient, hessian],
+                              extra)
+    gradient = ca.Function("dsmpepc_fg", [z, flat], [objective, ca.gradient(objective, z)],
+                           extra)
+    mapped = gradient.map(5)
+    step = FD_STEP * span
+    points = np.column_stack([np.zeros(4), np.diag(step)])
+
+    def fgh(zk, p):
+        values, grads = mapped(ca.repmat(ca.DM(zk), 1, 5) + points, p)
+        grads = np.asarray(grads, dtype=float)
+        hessian = (grads[:, 1:] - grads[:, :1]) / step
+        return values[0], grads[:, 0], 0.5 * (hessian + hessian.T)
+    return f, fgh
+
+
+@functools.lru_cache(maxsize=16)
+def _build(config: PlannerConfig, solver: SolverConfig, sizes: GraphSizes, jit_directory: str):
+    """``(cost, cold, warm, newton)``: the graph and its solvers, built once per configuration
+    and shared by every :class:`NlpSolver` of that configuration (one Planner per robot);
+    the warm-start state stays in each NlpSolver. Not for concurrent use from several threads.
+    """
+    cost = build_cost_function(config, sizes)
+    shapes = parameter_shapes(config, sizes)
+    z = ca.SX.sym("z", 4)
+    blocks = [ca.SX.sym(n, *shapes[n]) for n in PARAMETER_NAMES]
+    flat = ca.vertcat(*(ca.vec(b) for b in blocks))
+    nlp = {"x": z, "p": flat, "f": cost(z, *blocks)[0]}
+    extra = _jit_options(config, sizes, jit_directory) if solver.jit else {}
+    cold = warm = newton = None
+    plugin = solver.method
+    try:
+        if plugin == "newton":
+            span = np.array(config.z_upper, dtype=float) - np.array(config.z_lower, dtype=float)
+            newton = _newton_functions(z, flat, nlp["f"], extra, span)
+        else:
+            _, options = _plugin_options(solver, warm=False)
+            cold = warm = ca.nlpsol("dsmpepc_cold", plugin, nlp, {**options, **extra})
+        if plugin == "ipopt":
+            _, warm_options = _plugin_options(solver, warm=True)
+            warm = ca.nlpsol("dsmpepc_warm", plugin, nlp, {**warm_options, **extra})
+    except RuntimeError as error:
+        raise ValueError(f"SolverConfig.method = {plugin!r}: CasADi could not build the "
+                         f"solver for this problem ({str(error).splitlines()[-1]})") from None
+    return cost, cold, warm, newton
+
+
 class NlpSolver:
     """Multi-start NLP over z for one configuration; built once, solved every cycle.
 
@@ -191,32 +246,10 @@ class NlpSolver:
         if n_solved is None:
             n_solved = 3 if self.solver_config.method == "ipopt" else 2
         self.n_solved = n_solved
-        self.cost = build_cost_function(config, self.sizes)
-        shapes = parameter_shapes(config, self.sizes)
-        z = ca.SX.sym("z", 4)
-        blocks = [ca.SX.sym(n, *shapes[n]) for n in PARAMETER_NAMES]
-        flat = ca.vertcat(*(ca.vec(b) for b in blocks))
-        nlp = {"x": z, "p": flat, "f": self.cost(z, *blocks)[0]}
-        extra = (_jit_options(config, self.sizes, jit_directory)
-                 if self.solver_config.jit else {})
-        self._newton = None
-        self._cold = self._warm = None
         self.lower = np.array(config.z_lower, dtype=float)
         self.upper = np.array(config.z_upper, dtype=float)
-        plugin = self.solver_config.method
-        try:
-            if plugin == "newton":
-                self._newton = self._newton_functions(z, flat, nlp["f"], extra)
-            else:
-                _, options = _plugin_options(self.solver_config, warm=False)
-                self._cold = self._warm = ca.nlpsol("dsmpepc_cold", plugin, nlp,
-                                                    {**options, **extra})
-            if plugin == "ipopt":
-                _, warm_options = _plugin_options(self.solver_config, warm=True)
-                self._warm = ca.nlpsol("dsmpepc_warm", plugin, nlp, {**warm_options, **extra})
-        except RuntimeError as error:
-            raise ValueError(f"SolverConfig.method = {plugin!r}: CasADi could not build the "
-                             f"solver for this problem ({str(error).splitlines()[-1]})") from None
+        self.cost, self._cold, self._warm, self._newton = _build(
+            config, self.solver_config, self.sizes, jit_directory)
         self.spread = box_samples(config, self.solver_config.n_spread, self.solver_config.seed)
         self.screen = box_samples(config, n_screen, self.solver_config.seed + 1)
         self._lam_x = None
@@ -375,28 +408,6 @@ class NlpSolver:
         return {"z": self._snap(z), "status": status, "usable": usable, "nit": nit,
                 "cost": cost, "lam_x": np.asarray(result["lam_x"], dtype=float).reshape(-1),
                 "stats": timing}
-
-    def _newton_functions(self, z, flat, objective, extra) -> tuple:
-        """``(f, fgh)`` for :func:`~dsmpepc_nlp.newton.minimize`: the objective alone, and
-        objective, gradient and Hessian (``NEWTON_HESSIAN``: ``exact`` SX, or ``differences``
-        of the gradient at 5 points in one mapped call)."""
-        f = ca.Function("dsmpepc_f", [z, flat], [objective], extra)
-        if NEWTON_HESSIAN == "exact":
-            hessian, gradient = ca.hessian(objective, z)
-            return f, ca.Function("dsmpepc_fgh", [z, flat], [objective, gradient, hessian],
-                                  extra)
-        gradient = ca.Function("dsmpepc_fg", [z, flat], [objective, ca.gradient(objective, z)],
-                               extra)
-        mapped = gradient.map(5)
-        step = FD_STEP * (self.upper - self.lower)
-        points = np.column_stack([np.zeros(4), np.diag(step)])
-
-        def fgh(zk, p):
-            values, grads = mapped(ca.repmat(ca.DM(zk), 1, 5) + points, p)
-            grads = np.asarray(grads, dtype=float)
-            hessian = (grads[:, 1:] - grads[:, :1]) / step
-            return values[0], grads[:, 0], 0.5 * (hessian + hessian.T)
-        return f, fgh
 
     def _run_newton(self, z_start, p) -> dict:
         """One trust-region Newton solve (:func:`~dsmpepc_nlp.newton.minimize`)."""
