@@ -124,11 +124,15 @@ def _finish(fig, path):
 def compare_figure(episodes: dict, *, path=None):
     """Side by side: the final frame of each named episode (e.g. MPEPC vs DS-MPEPC)."""
     n = len(episodes)
-    fig, axes = plt.subplots(1, n, figsize=(5.5 * n, 5), squeeze=False)
+    fig, axes = plt.subplots(1, n, figsize=(5.5 * n, 5), squeeze=False, layout="constrained")
     for ax, (name, episode) in zip(axes[0], episodes.items()):
         draw_cycle(ax, episode, episode.n_cycles, samples=False, title=False)
         outcomes = ", ".join(episode.outcomes)
         ax.set_title(f"{name}: {outcomes}", fontsize=10)
+    # Height from the scene's aspect ratio, so a long corridor is not framed by blank space.
+    (x0, x1), (y0, y1) = axes[0, 0].get_xlim(), axes[0, 0].get_ylim()
+    aspect = abs(y1 - y0) / max(abs(x1 - x0), 1e-9)
+    fig.set_size_inches(5.5 * n, min(9.0, max(2.5, 5.0 * aspect + 1.2)))
     fig.suptitle(next(iter(episodes.values())).meta["scenario"])
     return _finish(fig, path)
 
