@@ -62,7 +62,7 @@ def test_variants_differ_only_in_the_two_switches():
         (lambda: PlannerConfig(anticipatory_pc=1), "anticipatory_pc"),
         (lambda: PlannerConfig(robot="big"), "robot"),
         (lambda: RobotState(0.0, math.inf, 0.0), "y"),
-        (lambda: SolverConfig(method="newton"), "method"),
+        (lambda: SolverConfig(method="bfgs"), "method"),
         (lambda: SolverConfig(n_samples=0), "n_samples"),
     ],
 )
