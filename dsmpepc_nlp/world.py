@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import functools
 import math
-import os
-import tempfile
 from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,6 +15,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from .errors import InputError
+from .files import atomic_write_bytes
 
 FAR = 1e3
 """Signed distance (m) reported everywhere on a grid without any occupied cell."""
@@ -149,19 +148,6 @@ def _read_pgm(path):
     if np.any(pixels > maxval):
         raise InputError(f"image {str(path)!r}: pixel values exceed maxval={maxval}")
     return pixels.reshape(height, width), maxval
-
-
-def _atomic_write(path, payload):
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(payload)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 # ---------------------------------------------------------------------------------------------
@@ -446,7 +432,7 @@ class OccupancyGrid:
             raise InputError(f"image_name={image_name!r}: expected a plain file name")
         ny, nx = self.shape
         raster = np.where(self._occupied[::-1], 0, 254).astype(np.uint8)
-        _atomic_write(path.parent / image_name, f"P5\n{nx} {ny}\n255\n".encode() + raster.tobytes())
+        atomic_write_bytes(path.parent / image_name, f"P5\n{nx} {ny}\n255\n".encode() + raster.tobytes())
         meta = {
             "image": image_name,
             "resolution": self._resolution,
@@ -456,7 +442,7 @@ class OccupancyGrid:
             "free_thresh": 0.196,
             "mode": "trinary",
         }
-        _atomic_write(path, yaml.safe_dump(meta, sort_keys=False).encode())
+        atomic_write_bytes(path, yaml.safe_dump(meta, sort_keys=False).encode())
 
 
 # ---------------------------------------------------------------------------------------------
