@@ -432,7 +432,8 @@ class OccupancyGrid:
             raise InputError(f"image_name={image_name!r}: expected a plain file name")
         ny, nx = self.shape
         raster = np.where(self._occupied[::-1], 0, 254).astype(np.uint8)
-        atomic_write_bytes(path.parent / image_name, f"P5\n{nx} {ny}\n255\n".encode() + raster.tobytes())
+        header = f"P5\n{nx} {ny}\n255\n".encode()
+        atomic_write_bytes(path.parent / image_name, header + raster.tobytes())
         meta = {
             "image": image_name,
             "resolution": self._resolution,
