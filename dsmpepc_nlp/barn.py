@@ -259,11 +259,25 @@ class BarnSettings:
     resolution: float = DEFAULT_RESOLUTION
     time_limit: float = TIME_LIMIT
     n_samples: int | None = None
+    overrides: tuple = ()
+    """``(name, value)`` pairs replacing configuration fields, as for ``sweep --param``
+    (``sigma_static`` for a cost field, ``part.field`` for another part)."""
 
     def meta(self) -> dict:
-        return {"benchmark": "barn", "variant": self.variant, "solver": self.solver,
+        meta = {"benchmark": "barn", "variant": self.variant, "solver": self.solver,
                 "v_limit": self.v_limit, "resolution": self.resolution,
                 "time_limit": self.time_limit, "n_samples": self.n_samples}
+        if self.overrides:
+            meta["overrides"] = {k: v for k, v in self.overrides}
+        return meta
+
+    def config(self) -> PlannerConfig:
+        """The variant with the Jackal body and the overrides."""
+        from .sweep import configure
+
+        config = configure(dict(self.overrides), self.variant)
+        return replace(config, robot=replace(jackal_robot(self.v_limit), **{
+            k.split(".", 1)[1]: v for k, v in self.overrides if k.startswith("robot.")}))
 
 
 def solver_config(name: str, n_samples: int | None = None) -> SolverConfig:
@@ -281,8 +295,8 @@ def run_world(index: int, settings: BarnSettings) -> dict:
     started = time.perf_counter()
     try:
         world = load_world(settings.data, index, settings.resolution)
-        robot = jackal_robot(settings.v_limit)
-        config = PlannerConfig.variant(settings.variant, robot=robot)
+        config = settings.config()
+        robot = config.robot
         episode = simulate(scenario(world, robot, settings.time_limit), config,
                            solver_config(settings.solver, settings.n_samples),
                            np.random.default_rng(index), record_trajectories=False)

@@ -57,6 +57,9 @@ def register(subparsers) -> None:
     barn.add_argument("--resolution", type=float, default=DEFAULT_RESOLUTION,
                       help=f"map cell side, m (default {DEFAULT_RESOLUTION})")
     barn.add_argument("--time-limit", type=float, default=TIME_LIMIT)
+    barn.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                      help="replace a configuration field, e.g. sigma_static=0.05 (a CostConfig "
+                           "field) or docking.radius=1.5 (repeatable)")
     _common(barn, "results/barn")
     barn.set_defaults(run=_run_barn, command_main=execute)
 
@@ -110,11 +113,21 @@ def _run_barn(args) -> dict:
     settings = BarnSettings(data=str(Path(args.data).resolve()), variant=args.variant,
                             solver=args.solver, v_limit=args.v_limit,
                             resolution=args.resolution, time_limit=args.time_limit,
-                            n_samples=args.samples)
+                            n_samples=args.samples, overrides=_overrides(args.set))
     rows, summary = run_benchmark(settings, worlds, args.out, workers=args.workers,
                                   resume=args.resume, overwrite=args.overwrite)
     summary["out"] = str(Path(args.out) / "barn.csv")
     return summary
+
+
+def _overrides(specs) -> tuple:
+    from .sweep import parse_params
+
+    params = parse_params(specs)
+    for name, values in params.items():
+        if len(values) != 1:
+            raise ValueError(f"--set {name}: give one value, not {len(values)}")
+    return tuple((name, values[0]) for name, values in params.items())
 
 
 def _run_crowd(args) -> dict:

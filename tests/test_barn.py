@@ -146,3 +146,13 @@ def test_real_world_zero_succeeds():
         pytest.skip("no BARN data")
     row = barn.run_world(0, barn.BarnSettings(data=str(data), solver="sampling"))
     assert row["outcome"] == "success"
+
+
+def test_overrides_reach_the_configuration(tmp_path):
+    s = settings(tmp_path, overrides=(("sigma_static", 0.05), ("robot.omega_limit", 1.0)))
+    config = s.config()
+    assert config.cost.sigma_static == 0.05 and config.robot.omega_limit == 1.0
+    assert config.robot.footprint == barn.jackal_robot().footprint
+    assert s.meta()["overrides"] == {"sigma_static": 0.05, "robot.omega_limit": 1.0}
+    with pytest.raises(ValueError, match="one value"):
+        bench_cli._overrides(["sigma_static=0.05,0.1"])
