@@ -172,8 +172,9 @@ def crossing_scenario(recording: Recording, rng: np.random.Generator, *,
     robot : RobotConfig, optional
         The robot (default ``RobotConfig()``); its bounding radius sets the start clearance.
     dt : float
-        Simulation step, s: pedestrian times are shifted by ``dt / 2`` so that no cycle falls on
-        a jump to or from ``OFFSTAGE``.
+        Simulation step, s: the window starts on the annotation grid and pedestrian times are
+        shifted by ``dt / 2``, so that no cycle falls on a jump to or from ``OFFSTAGE`` (the
+        step, 0.4 or 0.8 s, is a multiple of ``dt``).
     min_distance, max_distance : float
         Start-goal distance range, m.
     start_clearance : float
@@ -198,7 +199,10 @@ def crossing_scenario(recording: Recording, rng: np.random.Generator, *,
     times = recording.time(recording.frame)
     radius = robot.bounding_radius
     for _ in range(tries):
-        t0 = float(rng.uniform(first, last - duration))
+        # On the annotation grid, so every waypoint time is a multiple of the step plus dt / 2
+        # and no simulation time falls inside a jump to or from OFFSTAGE.
+        t0 = first + recording.step_time * float(
+            rng.integers(int((last - duration - first) / recording.step_time) + 1))
         inside = (times >= t0) & (times <= t0 + duration)
         if len(np.unique(recording.ped[inside])) < min_pedestrians:
             continue

@@ -90,3 +90,15 @@ def test_unknown_scene_is_an_error(tmp_path, capsys):
     assert bench_cli.main(["benchmark", "crowd", "--data", str(tmp_path), "--scene", "nope",
                            "--out", str(tmp_path / "o")]) == 2
     assert "nope" in capsys.readouterr().err
+
+
+def test_no_simulation_time_falls_inside_a_jump(tmp_path):
+    rec = crowds.load_recording(write_recording(tmp_path / "toy.txt"))
+    for seed in range(5):
+        scenario, draw = crowds.crossing_scenario(rec, np.random.default_rng(seed),
+                                                  duration=20.0)
+        assert draw["window_start"] / 0.4 == pytest.approx(round(draw["window_start"] / 0.4))
+        times = np.arange(0.0, 20.0 + 1e-9, 0.2)
+        for p in scenario.pedestrians:
+            speeds = [np.hypot(*p.velocity_at(t)) for t in times]
+            assert max(speeds) < 100.0  # a jump off stage would be ~1e6 m/s
