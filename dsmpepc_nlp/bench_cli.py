@@ -1,6 +1,8 @@
-"""Command line of the benchmarks and sweeps: ``dsmpepc benchmark barn|crowd``, ``dsmpepc sweep``.
+"""Command line of the benchmarks and sweeps: ``dsmpepc benchmark ...``, ``dsmpepc sweep``.
 
-``register(subparsers)`` adds the subcommands to the ``dsmpepc`` parser; ``main(argv)`` runs them
+``benchmark barn`` (BARN worlds), ``benchmark crowd`` (ETH/UCY crossings), ``benchmark
+scenarios`` (planner variants and ORCA side by side on YAML scenarios) and ``sweep``.
+``register(subparsers)`` adds them to the ``dsmpepc`` parser; ``main(argv)`` runs them
 stand-alone. Results go to ``--out`` (one table per run, written atomically after every row);
 progress goes to stderr, the summary to stdout (``--json``: one JSON object).
 
