@@ -319,12 +319,17 @@ def summarise(rows) -> dict:
         values = [r[key] for r in rows if pick(r) and r.get(key) is not None]
         return float(np.mean(values)) if values else math.nan
 
-    gaps = [r["min_distance"] for r in rows if r.get("min_distance") is not None]
+    # A gap near OFFSTAGE means no pedestrian was on stage while the robot ran: not a distance.
+    met = [r for r in rows if r.get("min_distance") is not None
+           and r["min_distance"] < OFFSTAGE[0] / 10]
+    gaps = [r["min_distance"] for r in met]
     return {"episodes": n, "success_rate": rate("success"),
             "collision_rate": rate("collision"), "timeout_rate": rate("timeout"),
             "deadlock_rate": rate("deadlock"), "error_rate": rate("error"),
             "time_to_goal": mean("time_to_goal", lambda r: r["outcome"] == "success"),
-            "discomfort": mean("discomfort"), "min_distance_mean": mean("min_distance"),
+            "discomfort": mean("discomfort"),
+            "min_distance_mean": float(np.mean(gaps)) if gaps else math.nan,
+            "episodes_with_pedestrians": len(met),
             "min_distance": float(np.min(gaps)) if gaps else math.nan,
             "plan_time_median": mean("plan_time_median")}
 

@@ -102,3 +102,13 @@ def test_no_simulation_time_falls_inside_a_jump(tmp_path):
         for p in scenario.pedestrians:
             speeds = [np.hypot(*p.velocity_at(t)) for t in times]
             assert max(speeds) < 100.0  # a jump off stage would be ~1e6 m/s
+
+
+def test_summary_ignores_runs_that_met_no_pedestrian():
+    rows = [{"outcome": "success", "min_distance": 0.5, "time_to_goal": 5.0},
+            {"outcome": "collision", "min_distance": -0.1},
+            {"outcome": "success", "min_distance": 9000.0, "time_to_goal": 7.0}]
+    summary = crowds.summarise(rows)
+    assert summary["min_distance_mean"] == pytest.approx(0.2)
+    assert summary["min_distance"] == -0.1 and summary["episodes_with_pedestrians"] == 2
+    assert summary["time_to_goal"] == 6.0 and summary["collision_rate"] == pytest.approx(1 / 3)
