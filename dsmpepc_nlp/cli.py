@@ -232,7 +232,7 @@ def build_parser() -> argparse.ArgumentParser:
         if variant:
             p.add_argument("--variant", choices=list(VARIANTS), default="ds-mpepc")
         p.add_argument("--solver", choices=SOLVERS, default="nlp",
-                       help="nlp (IPOPT, default), fast (SQP) or sampling")
+                       help="nlp (IPOPT, default), fast (trust-region Newton) or sampling")
         p.add_argument("--seed", type=_seed, default=0, help="seed of the start perturbations")
         p.add_argument("--out", default="out", help="folder for episodes and figures")
         p.add_argument("--json", action="store_true", help="print JSON on stdout")
