@@ -14,46 +14,12 @@ import csv
 import io
 import json
 import math
-import os
-import tempfile
 from pathlib import Path
+
+from .files import atomic_savefig, atomic_write_bytes, atomic_write_text  # noqa: F401 (re-exported)
 
 TABLE_FORMAT = 1
 """Version of the JSON layout written by :class:`ResultTable`."""
-
-
-def atomic_write_bytes(path, payload: bytes) -> Path:
-    """Write ``payload`` to ``path`` through a temporary file in the same folder + ``os.replace``.
-
-    On any exception the temporary file is removed and ``path`` is left as it was.
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    handle = tempfile.NamedTemporaryFile(dir=path.parent, prefix=f".{path.name}.",
-                                         suffix=".tmp", delete=False)
-    try:
-        with handle:
-            handle.write(payload)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(handle.name, path)
-    except BaseException:
-        Path(handle.name).unlink(missing_ok=True)
-        raise
-    return path
-
-
-def atomic_write_text(path, text: str) -> Path:
-    """:func:`atomic_write_bytes` of UTF-8 text."""
-    return atomic_write_bytes(path, text.encode("utf-8"))
-
-
-def atomic_savefig(fig, path, **kwargs) -> Path:
-    """Save a matplotlib figure atomically (format from the suffix of ``path``)."""
-    path = Path(path)
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format=path.suffix.lstrip(".") or "png", **kwargs)
-    return atomic_write_bytes(path, buffer.getvalue())
 
 
 def json_clean(value):
