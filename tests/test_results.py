@@ -77,3 +77,15 @@ def test_json_clean_handles_numpy():
 
     assert results.json_clean({"a": np.float64("inf"), "b": [np.int64(3)]}) == {"a": None,
                                                                                 "b": [3]}
+
+
+def test_atomic_writes_get_ordinary_permissions(tmp_path):
+    import os
+    import stat
+
+    from dsmpepc_nlp.files import atomic_write_text
+
+    path = atomic_write_text(tmp_path / "table.csv", "a,b\n")
+    mask = os.umask(0)
+    os.umask(mask)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o666 & ~mask
