@@ -181,6 +181,9 @@ def cmd_run(args) -> int:
     scenario = load_scenario(args.scenario)
     summary = run_one(scenario, args.variant, args.solver, args.seed, Path(args.out),
                       animate=args.animate, sample_cycles=args.samples)
+    if args.panels is not None:
+        summary["files"]["panels"] = str(_cost_panels(summary["_episode"], args.panels,
+                                                      Path(args.out)))
     if args.json:
         print(json.dumps(_public(summary), allow_nan=False))
         return 0
@@ -188,6 +191,20 @@ def cmd_run(args) -> int:
     for kind, path in summary["files"].items():
         print(f"{kind}: {path}")
     return 0
+
+
+def _cost_panels(episode, seconds: float, out: Path) -> Path:
+    """The paper's Fig. 2 panels for the first robot's planning cycle nearest ``seconds``."""
+    from . import plots
+
+    inputs = episode.planning_inputs(0)
+    planned = episode.times[:-1][episode.active[0]]
+    if not inputs:
+        raise UsageError("--panels: the first robot never planned")
+    k = int(np.argmin(np.abs(planned - seconds)))
+    state, world, goal = inputs[k]
+    stem = f"{episode.meta['scenario']}-panels-t{planned[k]:.1f}s"
+    return plots.cost_panels(state, world, goal, episode.config(), path=out / f"{stem}.png")
 
 
 def cmd_compare(args) -> int:
@@ -242,6 +259,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--animate", action="store_true", help="also write a GIF of the episode")
     p.add_argument("--samples", type=_nonnegative, default=DEFAULT_SAMPLE_CYCLES,
                    help="cycles whose evaluated trajectories are recorded and drawn (0: none)")
+    p.add_argument("--panels", type=_time, default=None, metavar="SECONDS",
+                   help="also draw the paper's Fig. 2 panels (lowest MPEPC cost, lowest TTG, "
+                        "highest TTC) for the first robot's cycle nearest this time")
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("compare", help="run several variants on the same scenario and seed")
@@ -255,6 +275,16 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _nonnegative(value: str) -> int:
     return _seed(value)
+
+
+def _time(value: str) -> float:
+    try:
+        seconds = float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{value!r} is not a number of seconds") from None
+    if not (math.isfinite(seconds) and seconds >= 0):
+        raise argparse.ArgumentTypeError(f"{value}: must be a finite time >= 0 s")
+    return seconds
 
 
 def _add_optional_commands(sub, common) -> None:

@@ -1,6 +1,7 @@
 """The command line: JSON on stdout, progress on stderr, files written, status 2 on bad input."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -110,3 +111,11 @@ def test_a_broken_scenario_file_exits_2_naming_the_field(tmp_path, capsys):
     assert main(["run", str(path), "--solver", "sampling", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert "bad.yaml" in err and "duration" in err and err.count("\n") == 1
+
+
+def test_run_draws_the_cost_panels_of_a_cycle(tiny, tmp_path, capsys):
+    assert main(["run", tiny, "--solver", "sampling", "--out", str(tmp_path), "--json",
+                 "--samples", "0", "--panels", "0.4"]) == 0
+    files = json.loads(capsys.readouterr().out)["files"]
+    assert files["panels"].endswith(".png") and Path(files["panels"]).is_file()
+    assert main(["run", tiny, "--solver", "sampling", "--panels", "-1"]) == 2
