@@ -342,15 +342,9 @@ def run_benchmark(settings: CrowdSettings, variants, episodes: int, seed: int, o
     ``success_rate``, ``collision_rate``, ...) and every variant under ``variants``.
     """
     progress = sys.stderr if progress is True else progress or None
-    from .config import VARIANTS
+    from .orca import check_variants
 
-    for v in variants:
-        if v != "orca" and v not in VARIANTS:
-            raise ValueError(f"--variants: {v!r}: must be orca or one of {', '.join(VARIANTS)}")
-    if "orca" in variants:
-        from .orca import require_pyrvo
-
-        require_pyrvo()
+    check_variants(variants)
     scene_files(settings.data, settings.scene)  # fail early on a bad scene
     table = ResultTable(out_dir, "crowd", ("variant", "episode", "seed"), settings.meta(),
                         resume=resume, overwrite=overwrite)

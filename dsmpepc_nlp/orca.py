@@ -59,6 +59,18 @@ def require_pyrvo():
     return pyrvo
 
 
+def check_variants(variants) -> None:
+    """Every name is ``orca`` or a planner variant; pyrvo is importable when ``orca`` is asked."""
+    from .config import VARIANTS
+    from .errors import InputError
+
+    for v in variants:
+        if v != "orca" and v not in VARIANTS:
+            raise InputError(f"--variants: {v!r}: must be orca or one of {', '.join(VARIANTS)}")
+    if "orca" in variants:
+        require_pyrvo()
+
+
 def grid_polygons(grid) -> list:
     """Counter-clockwise rectangles (lists of 4 (x, y)) covering the occupied cells of ``grid``.
 

@@ -321,17 +321,11 @@ def run_scenarios(variants, scenarios, seeds, settings: SweepSettings, out_dir, 
     The table is ``scenarios.{json,csv}`` keyed by (variant, scenario, seed); the summary has,
     per variant and scenario, the rates over seeds and robots.
     """
-    from .config import VARIANTS
+    from .orca import check_variants
     from .scenario import load_scenario
 
     progress = sys.stderr if progress is True else progress or None
-    for v in variants:
-        if v != "orca" and v not in VARIANTS:
-            raise ValueError(f"--variants: {v!r}: must be orca or one of {', '.join(VARIANTS)}")
-    if "orca" in variants:
-        from .orca import require_pyrvo
-
-        require_pyrvo()
+    check_variants(variants)
     for name in scenarios:
         load_scenario(name)
     meta = dict(settings.meta(), benchmark="scenarios")
