@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from .config import PlannerConfig, RobotConfig, RobotState, SolverConfig
+from .errors import InputError
 from .results import ResultTable, atomic_savefig
 from .world import OccupancyGrid
 
@@ -151,9 +152,9 @@ def _load_npy(path: Path, what: str) -> np.ndarray:
     try:
         return np.load(path, allow_pickle=False)
     except FileNotFoundError:
-        raise ValueError(f"{what} file {str(path)!r}: does not exist") from None
+        raise InputError(f"{what} file {str(path)!r}: does not exist") from None
     except (OSError, ValueError) as exc:
-        raise ValueError(f"{what} file {str(path)!r}: not a NumPy .npy array ({exc})") from None
+        raise InputError(f"{what} file {str(path)!r}: not a NumPy .npy array ({exc})") from None
 
 
 def load_grid(path) -> np.ndarray:
@@ -161,9 +162,9 @@ def load_grid(path) -> np.ndarray:
     path = Path(path)
     grid = _load_npy(path, "BARN grid")
     if grid.shape != GRID_SHAPE:
-        raise ValueError(f"BARN grid file {str(path)!r}: shape {grid.shape}: expected {GRID_SHAPE}")
+        raise InputError(f"BARN grid file {str(path)!r}: shape {grid.shape}: expected {GRID_SHAPE}")
     if not np.issubdtype(grid.dtype, np.number) or not np.all((grid == 0) | (grid == 1)):
-        raise ValueError(f"BARN grid file {str(path)!r}: values must be 0 or 1 "
+        raise InputError(f"BARN grid file {str(path)!r}: values must be 0 or 1 "
                          f"(dtype {grid.dtype})")
     return grid.astype(np.int64)
 
@@ -174,7 +175,7 @@ def load_path(path) -> np.ndarray:
     cells = _load_npy(path, "BARN path")
     if cells.ndim != 2 or cells.shape[1] != 2 or cells.shape[0] < 2 \
             or not np.issubdtype(cells.dtype, np.number) or not np.all(np.isfinite(cells)):
-        raise ValueError(f"BARN path file {str(path)!r}: shape {cells.shape}, dtype "
+        raise InputError(f"BARN path file {str(path)!r}: shape {cells.shape}, dtype "
                          f"{cells.dtype}: expected (n, 2) finite (row, col) with n >= 2")
     return cells
 
@@ -186,7 +187,7 @@ def load_metrics(path) -> np.ndarray | None:
         return None
     values = _load_npy(path, "BARN metrics")
     if values.shape != (len(METRIC_NAMES),):
-        raise ValueError(f"BARN metrics file {str(path)!r}: shape {values.shape}: expected (5,)")
+        raise InputError(f"BARN metrics file {str(path)!r}: shape {values.shape}: expected (5,)")
     return values.astype(float)
 
 
@@ -354,7 +355,7 @@ def run_benchmark(settings: BarnSettings, worlds, out_dir, *, workers: int | Non
     todo = [w for w in worlds if not table.done((w, settings.variant, settings.solver))]
     for w in todo:  # fail early on a missing folder rather than inside every worker
         if not world_files(settings.data, w)["grid"].exists():
-            raise ValueError(f"BARN data {settings.data!r}: no grid_files/grid_{w}.npy")
+            raise InputError(f"BARN data {settings.data!r}: no grid_files/grid_{w}.npy")
     workers = max(1, min(workers or os.cpu_count() or 1, len(todo) or 1))
     _say(progress, f"barn: {len(worlds) - len(todo)} of {len(worlds)} worlds already done, "
                    f"{len(todo)} to run on {workers} worker(s)")

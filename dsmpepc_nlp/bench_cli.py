@@ -19,6 +19,7 @@ import math
 import sys
 from pathlib import Path
 
+from .errors import InputError
 from .results import dumps, parse_indices
 
 EXIT_BAD_INPUT = 2
@@ -111,7 +112,7 @@ def _run_barn(args) -> dict:
 
     worlds = parse_indices(args.worlds, "--worlds")
     if not Path(args.data).is_dir():
-        raise ValueError(f"--data {args.data!r}: not a folder")
+        raise InputError(f"--data {args.data!r}: not a folder")
     settings = BarnSettings(data=str(Path(args.data).resolve()), variant=args.variant,
                             solver=args.solver, v_limit=args.v_limit,
                             resolution=args.resolution, time_limit=args.time_limit,
@@ -128,7 +129,7 @@ def _overrides(specs) -> tuple:
     params = parse_params(specs)
     for name, values in params.items():
         if len(values) != 1:
-            raise ValueError(f"--set {name}: give one value, not {len(values)}")
+            raise InputError(f"--set {name}: give one value, not {len(values)}")
     return tuple((name, values[0]) for name, values in params.items())
 
 

@@ -20,6 +20,7 @@ import numpy as np
 
 from .config import PlannerConfig
 from .control_law import EXACT, Trajectory
+from .errors import InputError
 from .smooth import NUMPY, relu, sabs, smax
 
 TERM_NAMES = ("progress", "action", "collision", "heading", "terminal")
@@ -280,7 +281,7 @@ def exact_geometry(trajectory: Trajectory, world, goal, config: PlannerConfig) -
     """Measure a batch of trajectories exactly in ``world`` (SDF, ray marching, closed forms)."""
     poses = trajectory.poses
     if poses.ndim == 2:
-        raise ValueError("exact_geometry takes a batch: index trajectories with [None]")
+        raise InputError("exact_geometry takes a batch: index trajectories with [None]")
     n, n_poses = poses.shape[:2]
     goal = np.asarray(goal, dtype=float)
     speeds = _speeds_at_poses(trajectory.v)

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from .config import PlannerConfig, RobotState, SolverConfig
+from .errors import InputError
 from .results import ResultTable
 
 FRAMES_PER_STEP = 10
@@ -87,9 +88,9 @@ def load_recording(path, step_time: float | None = None) -> Recording:
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
-        raise ValueError(f"ETH/UCY file {str(path)!r}: does not exist") from None
+        raise InputError(f"ETH/UCY file {str(path)!r}: does not exist") from None
     except (OSError, UnicodeDecodeError) as exc:
-        raise ValueError(f"ETH/UCY file {str(path)!r}: cannot read ({exc})") from None
+        raise InputError(f"ETH/UCY file {str(path)!r}: cannot read ({exc})") from None
     rows = []
     for number, line in enumerate(text.splitlines(), 1):
         if not line.strip():
@@ -100,17 +101,17 @@ def load_recording(path, step_time: float | None = None) -> Recording:
         except ValueError:
             values = []
         if len(values) != 4 or not all(math.isfinite(v) for v in values):
-            raise ValueError(f"ETH/UCY file {str(path)!r}, line {number}: {line.strip()!r}: "
+            raise InputError(f"ETH/UCY file {str(path)!r}, line {number}: {line.strip()!r}: "
                              "expected 4 tab-separated numbers 'frame ped_id x y'")
         rows.append(values)
     if not rows:
-        raise ValueError(f"ETH/UCY file {str(path)!r}: no rows")
+        raise InputError(f"ETH/UCY file {str(path)!r}: no rows")
     data = np.array(rows)
     order = np.lexsort((data[:, 1], data[:, 0]))
     data = data[order]
     frame, ped = data[:, 0].astype(np.int64), data[:, 1].astype(np.int64)
     if np.any((np.diff(frame) == 0) & (np.diff(ped) == 0)):
-        raise ValueError(f"ETH/UCY file {str(path)!r}: duplicate (frame, ped_id) rows")
+        raise InputError(f"ETH/UCY file {str(path)!r}: duplicate (frame, ped_id) rows")
     if step_time is None:
         step_time = STEP_TIME_OVERRIDES.get(path.stem.removesuffix("_train")
                                             .removesuffix("_val"), STEP_TIME)
@@ -125,7 +126,7 @@ def scene_files(data_dir, scene: str) -> list:
     folder = Path(data_dir) / scene / "test"
     files = sorted(folder.glob("*.txt"))
     if not files:
-        raise ValueError(f"scene {scene!r}: no recordings in {str(folder)!r} "
+        raise InputError(f"scene {scene!r}: no recordings in {str(folder)!r} "
                          f"(scenes: {', '.join(SCENES)}, or a .txt file)")
     return files
 
@@ -194,7 +195,7 @@ def crossing_scenario(recording: Recording, rng: np.random.Generator, *,
     robot = robot or RobotConfig()
     first, last = recording.span
     if last - first < duration:
-        raise ValueError(f"recording {recording.name!r}: spans {last - first:.1f} s, shorter "
+        raise InputError(f"recording {recording.name!r}: spans {last - first:.1f} s, shorter "
                          f"than the {duration} s window")
     times = recording.time(recording.frame)
     radius = robot.bounding_radius
@@ -230,7 +231,7 @@ def crossing_scenario(recording: Recording, rng: np.random.Generator, *,
                 "start": [float(v) for v in start_xy], "goal": [float(v) for v in goal_xy],
                 "pedestrians": len(peds)}
         return scenario, draw
-    raise ValueError(f"recording {recording.name!r}: no valid crossing in {tries} draws "
+    raise InputError(f"recording {recording.name!r}: no valid crossing in {tries} draws "
                      f"(need {min_pedestrians} pedestrians and a clear start)")
 
 

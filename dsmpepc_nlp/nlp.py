@@ -37,6 +37,7 @@ import casadi as ca
 import numpy as np
 
 from .config import PlannerConfig, RobotState, SolverConfig
+from .errors import InputError
 from .newton import minimize
 from .nlp_graph import (
     PARAMETER_NAMES,
@@ -114,7 +115,7 @@ def _plugin_options(solver: SolverConfig, warm: bool) -> tuple[str, dict]:
         options = {"print_time": False, "structure_detection": "none",
                    "fatrop.print_level": 0, "fatrop.max_iter": solver.max_iter}
     else:
-        raise ValueError(f"SolverConfig.method = {solver.method!r}: NlpSolver needs an NLP "
+        raise InputError(f"SolverConfig.method = {solver.method!r}: NlpSolver needs an NLP "
                          "plugin (ipopt, sqpmethod, fatrop)")
     options.update(dict(solver.options))
     return solver.method, options
@@ -193,7 +194,7 @@ def _build(config: PlannerConfig, solver: SolverConfig, sizes: GraphSizes, jit_d
             _, warm_options = _plugin_options(solver, warm=True)
             warm = ca.nlpsol("dsmpepc_warm", plugin, nlp, {**warm_options, **extra})
     except RuntimeError as error:
-        raise ValueError(f"SolverConfig.method = {plugin!r}: CasADi could not build the "
+        raise InputError(f"SolverConfig.method = {plugin!r}: CasADi could not build the "
                          f"solver for this problem ({str(error).splitlines()[-1]})") from None
     return cost, cold, warm, newton
 

@@ -69,6 +69,7 @@ import numpy as np
 from .config import PlannerConfig, RobotState
 from .control_law import EXACT, clamp_measured, rollout, step_function, target_pose
 from .costs import TERM_NAMES, assemble, disk_inverse_ttc, heading_error, inverse_ttg
+from .errors import InputError
 from .smooth import CASADI, relu, smax, softmax_objects, softmin_objects
 
 FAR = 1.0e3
@@ -113,7 +114,7 @@ class GraphSizes:
         for name in ("max_objects", "near_objects", "circles_per_object"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ValueError(f"GraphSizes.{name} = {value!r}: must be an integer >= 1")
+                raise InputError(f"GraphSizes.{name} = {value!r}: must be an integer >= 1")
 
 
 PARAMETER_NAMES = ("state", "goal", "obstacle_circles", "obstacle_velocities", "near_obstacles",

@@ -18,6 +18,7 @@ from matplotlib import animation
 from matplotlib.patches import Circle
 
 from .costs import footprint_points
+from .errors import InputError
 from .sampling import SamplingPlanner, structured_starts
 
 ROBOT_COLOURS = ("tab:blue", "tab:purple", "tab:cyan", "tab:olive", "tab:brown", "tab:pink",
@@ -198,7 +199,7 @@ def animate(episode, path, *, fps: int | None = None, stride: int = 1):
     elif suffix == ".gif":
         writer = animation.PillowWriter(fps=fps or round(1 / (episode.dt * stride)))
     else:
-        raise ValueError(f"animation path {str(path)!r}: must end in .gif or .mp4")
+        raise InputError(f"animation path {str(path)!r}: must end in .gif or .mp4")
     frames = list(range(0, episode.n_cycles + 1, stride))
     if frames[-1] != episode.n_cycles:
         frames.append(episode.n_cycles)

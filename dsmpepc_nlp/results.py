@@ -16,6 +16,7 @@ import json
 import math
 from pathlib import Path
 
+from .errors import InputError
 from .files import atomic_savefig, atomic_write_bytes, atomic_write_text  # noqa: F401 (re-exported)
 
 TABLE_FORMAT = 1
@@ -105,16 +106,16 @@ class ResultTable:
         try:
             data = json.loads(path.read_text(encoding="utf-8"))
         except (OSError, ValueError) as exc:
-            raise ValueError(f"result table {str(path)!r}: cannot read ({exc})") from None
+            raise InputError(f"result table {str(path)!r}: cannot read ({exc})") from None
         if not isinstance(data, dict) or data.get("format") != TABLE_FORMAT \
                 or not isinstance(data.get("rows"), list):
-            raise ValueError(f"result table {str(path)!r}: not a table written by this version "
+            raise InputError(f"result table {str(path)!r}: not a table written by this version "
                              f"(expected format {TABLE_FORMAT} with a list of rows)")
         stored = data.get("meta", {})
         if stored != self.meta:
             changed = sorted(k for k in set(stored) | set(self.meta)
                              if stored.get(k) != self.meta.get(k))
-            raise ValueError(f"result table {str(path)!r}: was written with other settings "
+            raise InputError(f"result table {str(path)!r}: was written with other settings "
                              f"({', '.join(changed)}); resume with the same settings or write "
                              "to another folder")
         self.rows = list(data["rows"])
@@ -180,9 +181,9 @@ def parse_indices(text: str, name: str = "indices") -> list[int]:
             if step_n < 1 or hi < lo or lo < 0:
                 raise ValueError
         except ValueError:
-            raise ValueError(f"{name} = {text!r}: part {part!r} must be N, A-B or A-B:STEP "
+            raise InputError(f"{name} = {text!r}: part {part!r} must be N, A-B or A-B:STEP "
                              "with 0 <= A <= B and STEP >= 1") from None
         out.update(range(lo, hi + 1, step_n))
     if not out:
-        raise ValueError(f"{name} = {text!r}: no index given")
+        raise InputError(f"{name} = {text!r}: no index given")
     return sorted(out)

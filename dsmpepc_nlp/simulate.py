@@ -39,6 +39,7 @@ from .config import PlannerConfig, RobotConfig, RobotState, SolverConfig
 from .control_law import arc_step
 from .costs import TERM_NAMES, footprint_points
 from .episode import Episode, config_to_dict, robot_obstacle
+from .errors import InputError
 from .planner import STATUSES, Planner
 from .world import DynamicObstacle, OccupancyGrid, World
 
@@ -84,15 +85,15 @@ class Pedestrian:
         positions = np.atleast_2d(np.asarray(self.positions, dtype=float))
         velocity = np.asarray(self.velocity, dtype=float)
         if times.ndim != 1 or positions.shape != (times.size, 2) or times.size < 1:
-            raise ValueError(f"Pedestrian: times {times.shape} and positions {positions.shape}: "
+            raise InputError(f"Pedestrian: times {times.shape} and positions {positions.shape}: "
                              "must be (K,) and (K, 2) with K >= 1")
         if not (np.all(np.isfinite(times)) and np.all(np.isfinite(positions))
                 and velocity.shape == (2,) and np.all(np.isfinite(velocity))):
-            raise ValueError("Pedestrian: times, positions and velocity must be finite")
+            raise InputError("Pedestrian: times, positions and velocity must be finite")
         if np.any(np.diff(times) <= 0):
-            raise ValueError(f"Pedestrian.times = {times.tolist()}: must be strictly increasing")
+            raise InputError(f"Pedestrian.times = {times.tolist()}: must be strictly increasing")
         if not (math.isfinite(self.radius) and self.radius > 0):
-            raise ValueError(f"Pedestrian.radius = {self.radius!r}: must be finite and > 0")
+            raise InputError(f"Pedestrian.radius = {self.radius!r}: must be finite and > 0")
         object.__setattr__(self, "times", times)
         object.__setattr__(self, "positions", positions)
         object.__setattr__(self, "velocity", velocity)
@@ -275,7 +276,7 @@ def simulate(scenario: Scenario, config: PlannerConfig, solver: SolverConfig, rn
     agents = scenario.agents
     n = len(agents)
     if n == 0:
-        raise ValueError(f"scenario {scenario.name!r}: agents is empty: need at least one robot")
+        raise InputError(f"scenario {scenario.name!r}: agents is empty: need at least one robot")
     configs = [config if a.robot is None else dataclasses.replace(config, robot=a.robot)
                for a in agents]
     planners = [Planner(c, solver) for c in configs]
