@@ -213,9 +213,33 @@ def parse_scenario(data, source: str = "<mapping>", folder=None) -> Scenario:
         r.mapping(p, where, required=("pose", "footprint"))
         parked.append(ParkedRobot(r.vector(p["pose"], f"{where}.pose", 3, ("x", "y", "phi")),
                                   r.footprint(p["footprint"], f"{where}.footprint")))
+    if grid is not None:
+        _check_against_map(r, grid, agents)
     return Scenario(name=name, agents=agents, grid=grid, pedestrians=pedestrians,
                     parked=tuple(parked), duration=duration, start_noise=start_noise,
                     map_path=map_path, description=description)
+
+
+def _check_against_map(r, grid, agents) -> None:
+    """A start whose footprint overlaps the map, or a fixed goal inside it, is an error.
+
+    The check uses the map's signed distance, the same one that decides a collision.
+    """
+    for i, agent in enumerate(agents):
+        circles = np.asarray((agent.robot or RobotConfig()).footprint, dtype=float)
+        s = agent.start
+        cos, sin = np.cos(s.phi), np.sin(s.phi)
+        centres = np.stack([s.x + cos * circles[:, 0] - sin * circles[:, 1],
+                            s.y + sin * circles[:, 0] + cos * circles[:, 1]], axis=-1)
+        gap = float(np.min(grid.distance(centres) - circles[:, 2]))
+        if gap < 0:
+            r.fail(f"robots[{i}].start", f"[{s.x}, {s.y}, {s.phi}]: the footprint overlaps the "
+                   f"map by {-gap:.3f} m; a start must be in free space")
+        if isinstance(agent.goal, FixedGoal):
+            inside = float(grid.distance(np.asarray(agent.goal.position, dtype=float)))
+            if inside < 0:
+                r.fail(f"robots[{i}].goal.position", f"{list(agent.goal.position)}: inside an "
+                       f"obstacle of the map ({-inside:.3f} m deep); a goal must be in free space")
 
 
 def _agent(r, a, where, index, n_pedestrians) -> Agent:

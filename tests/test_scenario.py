@@ -54,7 +54,8 @@ def test_builtin_contents_match_the_paper_descriptions():
 
 
 def test_a_user_file_with_a_map_loads(tmp_path):
-    grid = OccupancyGrid(np.eye(10, dtype=bool), 0.5, (-1.0, -1.0))
+    # A diagonal wall that keeps clear of the robot's start (0, 0) and goal (2, 0).
+    grid = OccupancyGrid(np.eye(10, k=4, dtype=bool), 0.5, (-1.0, -1.0))
     grid.to_yaml(tmp_path / "room.map.yaml")
     doc = dict(VALID, map="room.map.yaml")
     (tmp_path / "mine.yaml").write_text(yaml.safe_dump(doc))
@@ -129,3 +130,18 @@ def test_unknown_names_and_broken_files(tmp_path):
 def test_parse_scenario_accepts_a_mapping():
     s = parse_scenario(copy.deepcopy(VALID))
     assert s.agents[0].name == "a" and s.map_path is None and s.grid is None
+
+
+@pytest.mark.parametrize(("robot", "field"), [
+    ({"start": [1.0, 1.0, 0.0], "goal": {"position": [3.5, 1.0]}}, "robots[0].start"),
+    ({"start": [3.5, 1.0, 0.0], "goal": {"position": [1.0, 1.0]}}, "robots[0].goal.position"),
+])
+def test_a_start_or_goal_in_an_obstacle_is_an_error(tmp_path, robot, field):
+    occupied = np.zeros((20, 20), bool)
+    occupied[:, 8:12] = True                    # a wall at x = 0.8 .. 1.2 m
+    OccupancyGrid(occupied, 0.1).to_yaml(tmp_path / "wall.map.yaml")
+    doc = {"name": "walled", "duration": 1.0, "map": "wall.map.yaml", "robots": [robot]}
+    (tmp_path / "walled.yaml").write_text(yaml.safe_dump(doc))
+    with pytest.raises(ScenarioError, match="must be in free space") as error:
+        load_scenario(tmp_path / "walled.yaml")
+    assert "walled.yaml" in str(error.value) and f"{field}:" in str(error.value)
