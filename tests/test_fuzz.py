@@ -90,3 +90,20 @@ def test_any_short_episode_ends_with_an_outcome(situation, seed):
                        np.random.default_rng(seed), record_trajectories=False)
     assert len(episode.outcomes) == 1 and episode.outcomes[0] in OUTCOMES
     assert np.all(np.isfinite(episode.states))
+
+
+NLP_PLANNERS = {}
+
+
+@settings(max_examples=EXAMPLES // 10)
+@given(situation=situations(), method=st.sampled_from(["fast", "nlp"]))
+def test_the_nlp_path_also_gives_finite_controls_within_limits(situation, method):
+    """The product path: local models, the CasADi graph, the solver, fallbacks."""
+    state, world, goal = situation
+    if method not in NLP_PLANNERS:
+        NLP_PLANNERS[method] = Planner(PlannerConfig(), SolverConfig.named(method))
+    planner = NLP_PLANNERS[method]
+    plan = planner.plan(state, world, goal, dock=False)
+    assert_control_in_limits(plan.control, planner.config.robot)
+    assert np.all(np.isfinite(plan.trajectory.poses)) and not math.isnan(plan.fun)
+    assert plan.status in ("nlp", "sampling-fallback", "stopped")
