@@ -6,16 +6,14 @@ import functools
 import math
 from collections import OrderedDict
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
-import yaml
 from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from .errors import InputError
-from .files import atomic_write_bytes
+from .errors import InputError, finite_vector, positive_number
+from .mapfile import read_map, write_map
 
 FAR = 1e3
 """Signed distance (m) reported everywhere on a grid without any occupied cell."""
@@ -25,25 +23,6 @@ _NAV_CACHE_SIZE = 16  # navigation functions kept per world; moving goals would 
 
 # ---------------------------------------------------------------------------------------------
 # validation helpers
-
-
-def _finite_vector(name, value, size):
-    arr = np.array(value, dtype=float)
-    if arr.shape != (size,) or not np.all(np.isfinite(arr)):
-        raise InputError(f"{name}={value!r}: expected {size} finite numbers")
-    return arr
-
-
-def _positive(name, value, allow_zero=False):
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{name}={value!r}: expected a finite number") from None
-    ok = math.isfinite(x) and (x >= 0.0 if allow_zero else x > 0.0)
-    if not ok or isinstance(value, bool):
-        allowed = "finite and >= 0" if allow_zero else "finite and > 0"
-        raise InputError(f"{name}={value!r}: expected a number {allowed}")
-    return x
 
 
 def _points(name, points):
@@ -84,73 +63,6 @@ def _interpolate(table, resolution, origin, points):
 
 
 # ---------------------------------------------------------------------------------------------
-# PGM
-
-
-def _read_pgm(path):
-    """Read a binary (P5) or ascii (P2) PGM: (pixels (h, w) int, maxval); row 0 is the top."""
-    try:
-        data = Path(path).read_bytes()
-    except OSError as exc:
-        raise InputError(f"image {str(path)!r}: cannot read ({exc.strerror})") from None
-    magic = data[:2]
-    if magic not in (b"P5", b"P2"):
-        raise InputError(
-            f"image {str(path)!r}: not a PGM file (magic {magic!r}, expected P5 or P2)"
-        )
-
-    pos = 2
-    header = []
-    while len(header) < 3:
-        while pos < len(data) and (data[pos : pos + 1].isspace() or data[pos : pos + 1] == b"#"):
-            if data[pos : pos + 1] == b"#":
-                end = data.find(b"\n", pos)
-                pos = len(data) if end < 0 else end + 1
-            else:
-                pos += 1
-        start = pos
-        while pos < len(data) and not data[pos : pos + 1].isspace() and data[pos : pos + 1] != b"#":
-            pos += 1
-        token = data[start:pos]
-        if not token.isdigit():
-            raise InputError(
-                f"image {str(path)!r}: truncated or malformed PGM header (got {token!r} where "
-                "width, height and maxval are expected)"
-            )
-        header.append(int(token))
-    width, height, maxval = header
-    if width < 1 or height < 1 or not 1 <= maxval <= 65535:
-        raise InputError(
-            f"image {str(path)!r}: PGM header width={width}, height={height}, maxval={maxval}: "
-            "expected width, height >= 1 and 1 <= maxval <= 65535"
-        )
-
-    count = width * height
-    if magic == b"P5":
-        pos += 1  # exactly one whitespace byte separates maxval from the raster
-        dtype = np.dtype(">u2") if maxval > 255 else np.dtype(np.uint8)
-        nbytes = count * dtype.itemsize
-        if len(data) - pos < nbytes:
-            raise InputError(
-                f"image {str(path)!r}: truncated PGM raster ({len(data) - pos} bytes, "
-                f"expected {nbytes} for {width}x{height})"
-            )
-        pixels = np.frombuffer(data, dtype=dtype, count=count, offset=pos).astype(np.int64)
-    else:
-        text = b"\n".join(line.split(b"#", 1)[0] for line in data[pos:].splitlines())
-        tokens = text.split()
-        if len(tokens) < count or not all(t.isdigit() for t in tokens[:count]):
-            raise InputError(
-                f"image {str(path)!r}: truncated or malformed ascii PGM raster "
-                f"(expected {count} integers for {width}x{height})"
-            )
-        pixels = np.array([int(t) for t in tokens[:count]], dtype=np.int64)
-    if np.any(pixels > maxval):
-        raise InputError(f"image {str(path)!r}: pixel values exceed maxval={maxval}")
-    return pixels.reshape(height, width), maxval
-
-
-# ---------------------------------------------------------------------------------------------
 # occupancy grid
 
 
@@ -183,8 +95,8 @@ class OccupancyGrid:
                 f"occupied has dtype {arr.dtype} and values other than 0/1: expected bool or 0/1"
             )
         self._occupied = _readonly(np.array(arr, dtype=bool))
-        self._resolution = _positive("resolution", resolution)
-        self._origin = _readonly(_finite_vector("origin", origin, 2))
+        self._resolution = positive_number("resolution", resolution)
+        self._origin = _readonly(finite_vector("origin", origin, 2))
 
     @classmethod
     def from_array(cls, occupied, resolution, origin=(0.0, 0.0)) -> OccupancyGrid:
@@ -296,7 +208,7 @@ class OccupancyGrid:
         orig = _points("origins", origins)
         head = np.asarray(headings, dtype=float)
         clear = np.asarray(clearance, dtype=float)
-        max_range = _positive("max_range", max_range, allow_zero=True)
+        max_range = positive_number("max_range", max_range, allow_zero=True)
         if not np.all(np.isfinite(head)):
             raise InputError("headings contains non-finite values: expected finite angles (rad)")
         if not np.all(np.isfinite(clear)):
@@ -335,115 +247,23 @@ class OccupancyGrid:
 
     @classmethod
     def from_yaml(cls, path) -> OccupancyGrid:
-        """Load a ROS ``map_server`` map: a YAML file and the PGM image it names.
-
-        Honoured fields: ``image`` (relative to the YAML's folder), ``resolution`` (m/cell),
-        ``origin`` [x, y, yaw] (yaw must be 0), ``negate`` (0/1, default 0), ``occupied_thresh``
-        (default 0.65), ``free_thresh`` (default 0.196), ``mode`` ("trinary" default, or "scale").
-
-        A pixel p of a PGM with maximum value M has occupancy ``(M - p) / M`` (``p / M`` when
-        negated), i.e. ``(255 - p) / 255`` for 8-bit images; it is occupied when that exceeds
-        ``occupied_thresh``. Unknown cells (between ``free_thresh`` and ``occupied_thresh``) count
-        as FREE for planning. Image row 0 is the top of the map (largest y).
+        """Load a ROS ``map_server`` map (YAML + PGM); see :func:`~dsmpepc_nlp.mapfile.read_map`.
 
         Raises
         ------
-        ValueError
+        InputError
             Naming the file and the field for unreadable YAML, missing or invalid fields, a
             missing image, or a truncated or non-PGM image.
         """
-        path = Path(path)
-        where = f"map file {str(path)!r}"
-        try:
-            meta = yaml.safe_load(path.read_text())
-        except OSError as exc:
-            raise InputError(f"{where}: cannot read ({exc.strerror})") from None
-        except yaml.YAMLError as exc:
-            raise InputError(f"{where}: invalid YAML ({exc})") from None
-        if not isinstance(meta, dict):
-            raise InputError(  # noqa: TRY004 - bad file content, not a bad argument
-                f"{where}: expected a mapping with image, resolution, origin"
-            )
-        for key in ("image", "resolution", "origin"):
-            if key not in meta:
-                raise InputError(f"{where}: missing field {key!r}")
-
-        def field(fn, key, *args):
-            try:
-                return fn(key, meta[key], *args)
-            except ValueError as exc:
-                raise InputError(f"{where}: {exc}") from None
-
-        resolution = field(_positive, "resolution")
-        origin = meta["origin"]
-        if not isinstance(origin, (list, tuple)) or len(origin) != 3:
-            raise InputError(f"{where}: origin={origin!r}: expected [x, y, yaw]")
-        origin = field(_finite_vector, "origin", 3)
-        if origin[2] != 0.0:
-            raise InputError(f"{where}: origin yaw={origin[2]!r}: only 0 is supported")
-        negate = meta.get("negate", 0)
-        if negate not in (0, 1):
-            raise InputError(f"{where}: negate={negate!r}: expected 0 or 1")
-        thresholds = {}
-        for key, default in (("occupied_thresh", 0.65), ("free_thresh", 0.196)):
-            value = meta.get(key, default)
-            number = isinstance(value, (int, float)) and not isinstance(value, bool)
-            if not number or not 0 <= value <= 1:
-                raise InputError(f"{where}: {key}={value!r}: expected a number in [0, 1]")
-            thresholds[key] = float(value)
-        if thresholds["free_thresh"] > thresholds["occupied_thresh"]:
-            raise InputError(
-                f"{where}: free_thresh={thresholds['free_thresh']} > occupied_thresh="
-                f"{thresholds['occupied_thresh']}: expected free_thresh <= occupied_thresh"
-            )
-        mode = meta.get("mode", "trinary")
-        if mode not in ("trinary", "scale"):
-            raise InputError(f"{where}: mode={mode!r}: expected 'trinary' or 'scale'")
-        image = meta["image"]
-        if not isinstance(image, str) or not image:
-            raise InputError(f"{where}: image={image!r}: expected a file name")
-        image_path = path.parent / image
-        if not image_path.is_file():
-            raise InputError(f"{where}: image file {str(image_path)!r} (field 'image') not found")
-
-        pixels, maxval = _read_pgm(image_path)
-        lightness = pixels / maxval
-        occupancy = lightness if negate else 1.0 - lightness
-        occupied = occupancy > thresholds["occupied_thresh"]
-        return cls(occupied[::-1], resolution, origin[:2])
+        return cls(*read_map(path))
 
     def to_yaml(self, path, image_name=None) -> None:
-        """Write a ROS ``map_server`` YAML file and a binary PGM next to it.
+        """Write a ROS ``map_server`` YAML file and a binary PGM beside it, atomically.
 
-        Occupied cells are written black (0), free cells 254; ``negate`` 0, ``occupied_thresh``
-        0.65, ``free_thresh`` 0.196. Both files are replaced atomically.
-
-        Parameters
-        ----------
-        path : str or Path
-            YAML file to write.
-        image_name : str, optional
-            Image file name, in the YAML's folder; default: the YAML's stem + ".pgm".
+        See :func:`~dsmpepc_nlp.mapfile.write_map`; ``image_name`` defaults to the YAML's stem
+        + ".pgm".
         """
-        path = Path(path)
-        if image_name is None:
-            image_name = path.stem + ".pgm"
-        if not isinstance(image_name, str) or not image_name or Path(image_name).name != image_name:
-            raise InputError(f"image_name={image_name!r}: expected a plain file name")
-        ny, nx = self.shape
-        raster = np.where(self._occupied[::-1], 0, 254).astype(np.uint8)
-        header = f"P5\n{nx} {ny}\n255\n".encode()
-        atomic_write_bytes(path.parent / image_name, header + raster.tobytes())
-        meta = {
-            "image": image_name,
-            "resolution": self._resolution,
-            "origin": [float(self._origin[0]), float(self._origin[1]), 0.0],
-            "negate": 0,
-            "occupied_thresh": 0.65,
-            "free_thresh": 0.196,
-            "mode": "trinary",
-        }
-        atomic_write_bytes(path, yaml.safe_dump(meta, sort_keys=False).encode())
+        write_map(path, self._occupied, self._resolution, self._origin, image_name)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -487,9 +307,10 @@ class NavigationFunction:
     """
 
     def __init__(self, goal, grid=None, inflation_radius=0.0, margin=2.0):
-        self.goal = _readonly(_finite_vector("goal", goal, 2))
-        self.inflation_radius = _positive("inflation_radius", inflation_radius, allow_zero=True)
-        margin = _positive("margin", margin, allow_zero=True)
+        self.goal = _readonly(finite_vector("goal", goal, 2))
+        self.inflation_radius = positive_number("inflation_radius", inflation_radius,
+                                                allow_zero=True)
+        margin = positive_number("margin", margin, allow_zero=True)
         if grid is not None and not isinstance(grid, OccupancyGrid):
             raise TypeError(f"grid={grid!r}: expected an OccupancyGrid or None")
         self.values = None
@@ -660,7 +481,7 @@ class DynamicObstacle:
             raise InputError(f"radii has shape {radii.shape}: expected ({centers.shape[0]},)")
         if not np.all(np.isfinite(radii) & (radii > 0)):
             raise InputError(f"radii={radii.tolist()}: expected finite radii > 0 (m)")
-        velocity = _finite_vector("velocity", self.velocity, 2)
+        velocity = finite_vector("velocity", self.velocity, 2)
         if self.kind not in _KINDS:
             raise InputError(f"kind={self.kind!r}: expected one of {_KINDS}")
         object.__setattr__(self, "centers", _readonly(centers))
@@ -681,7 +502,7 @@ class DynamicObstacle:
 
         ``footprint`` is a sequence of body-frame circles ``(cx, cy, radius)`` (m), shape (m, 3).
         """
-        x, y, phi = _finite_vector("pose", pose, 3)
+        x, y, phi = finite_vector("pose", pose, 3)
         circles = np.array(footprint, dtype=float)
         if circles.ndim != 2 or circles.shape[0] < 1 or circles.shape[1] != 3:
             raise InputError(
@@ -735,8 +556,8 @@ class World:
         Cached per (goal rounded to 1e-9 m, inflation radius), shared with :meth:`with_obstacles`
         copies; the least recently used of more than 16 entries is dropped.
         """
-        goal = _finite_vector("goal", goal, 2)
-        inflation_radius = _positive("inflation_radius", inflation_radius, allow_zero=True)
+        goal = finite_vector("goal", goal, 2)
+        inflation_radius = positive_number("inflation_radius", inflation_radius, allow_zero=True)
         key = (*np.round(goal, 9).tolist(), inflation_radius)
         cache = self._navigation_cache
         if key in cache:
