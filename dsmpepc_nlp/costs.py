@@ -83,10 +83,13 @@ def inverse_ttg(poses_terminal, v_terminal, goal, ops=NUMPY, smoothing=EXACT):
 
     Distance to the goal over the component of the terminal velocity along the goal
     direction: ``1/TTG = max(v u.(g - p), 0) / |g - p|^2``; 0 when that component is <= 0.
+    Smooth: the clip acts on the ratio, so its temperature is in 1/s like the result; a clip
+    of the numerator alone (m^2/s) grew by ``t log 2 / |g - p|^2`` near the goal (x 100 at
+    0.1 m), and there the bell of width s_ttg saw 1/TTG = 3e-3 1/s where the exact one is 0.
     """
     dx, dy = goal[0] - poses_terminal[0], goal[1] - poses_terminal[1]
     along = v_terminal * (ops.cos(poses_terminal[2]) * dx + ops.sin(poses_terminal[2]) * dy)
-    return relu(along, smoothing.inverse_time, ops) / (dx * dx + dy * dy + 1e-12)
+    return relu(along / (dx * dx + dy * dy + 1e-12), smoothing.inverse_time, ops)
 
 
 def heading_error(phi, descent_x, descent_y, ops=NUMPY, smoothing=EXACT):

@@ -64,8 +64,13 @@ def box_qp(g, H, lower, upper) -> np.ndarray:
     fixed = np.where(at_low, lower, np.where(at_up, upper, 0.0))              # (3^n, n)
     reduced = np.where(both, H, 0.0) + pad                                    # (2^n, n, n)
     scale = max(1.0, float(np.max(np.abs(H))))
-    definite = (np.linalg.eigvalsh(reduced)[:, 0] > 1e-10 * scale)[subset]
-    inverse = np.linalg.inv(reduced) * both       # zero outside the free block
+    positive = np.linalg.eigvalsh(reduced)[:, 0] > 1e-10 * scale                # (2^n,)
+    definite = positive[subset]
+    # Only the definite blocks are inverted: a singular one (seen on hall: a Hessian row of
+    # exact zeros) made np.linalg.inv raise for the whole batch and the plan fall back.
+    inverse = np.zeros_like(reduced)
+    inverse[positive] = np.linalg.inv(reduced[positive])
+    inverse *= both                               # zero outside the free block
     # Free variables: H_FF d_F = -(g_F + H_F,fixed d_fixed); fixed ones stay on their bound.
     d = fixed - np.einsum("fij,fj->fi", inverse[subset], g + fixed @ H)
     slack = 1e-9 * (1.0 + np.abs(upper - lower))

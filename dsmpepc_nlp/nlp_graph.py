@@ -26,8 +26,12 @@ What the graph sees of the world, and why (numbers: crowded demo scene, map + 12
   are the only ones whose collision probability is not ~0 near the reference (exact at the
   reference in the demo scene, tested); the terminal TTC at v_limit sees the ``max_objects``
   (12) nearest to the robot, because 1/TTC at v_limit matters metres away.
-- **1/TTG**: its bell is s_ttg = 1e-3 1/s wide, so its soft-clip runs at a tenth of s_ttg
-  instead of ``smoothing.inverse_time`` (which shifted C_TTG by up to 0.45 where it is 1).
+- **1/TTG**: its bell is s_ttg = 1e-3 1/s wide, so its soft-clip runs at
+  ``inverse_time * s_ttg / s_ttc`` (4e-5 1/s) instead of ``smoothing.inverse_time`` (which
+  shifted C_TTG by up to 0.45 where it is 1), and clips the ratio ``v u.(g - p) / |g - p|^2``,
+  not its numerator: clipping the numerator put ``1e-4 log 2 / |g - p|^2`` into 1/TTG, i.e. C_TTG ~ 0 instead of 1 for a horizon ending
+  within 0.1-0.2 m of the goal (``hall``, moving goal: on the sampler's best plans of cycles
+  2 and 8 the graph's terminal term was -0.00 where the exact one is -0.87 and -0.91).
 - **v_max** is floored at 0 in the graph: SQP iterates left the box by the QP tolerance
   (v_max = -2.8e-3) and the law's smooth speed cap turned the Hessian NaN there: that was the
   source of the "nlp_hess_l ... NaN detected" warnings.
@@ -79,9 +83,6 @@ exp(-FAR^2/sigma^2) is exactly 0."""
 MODEL_RADIUS = 0.5
 """Trust radius of the local quadratic models, m: the curvature term is damped by
 ``1 / (1 + |dp|^2 / MODEL_RADIUS^2)`` so a model never bends back far from its reference."""
-
-_TTG_TEMPERATURE = 0.1
-"""Soft-clip temperature of 1/TTG's numerator as a share of s_ttg (times 1 m^2)."""
 
 NAV_COLUMNS = 8
 """Per pose: reference point (x, y), NF value, gradient (2), Hessian (xx, xy, yy)."""
@@ -357,11 +358,12 @@ def cost_expression(z, params, config, sizes, smoothing):
         nf.append(value)
     end = poses[-1]
     err = heading_error(end[2], descent[0], descent[1], CASADI, smoothing)
-    # The TTG bell is s_ttg = 1e-3 1/s wide: a softplus of temperature inverse_time (0.02)
-    # would add ~0.014 / |g - p|^2 1/s to 1/TTG and shrink C_TTG by up to 0.45 where the exact
-    # value is 1, so this one soft-clip runs at a tenth of s_ttg (in m^2/s).
+    # The TTG bell is s_ttg = 1e-3 1/s wide: a softplus of temperature inverse_time (0.02 1/s)
+    # would add 0.014 1/s to 1/TTG and make C_TTG ~0 where the exact value is 1, so this
+    # soft-clip runs at the same share of its bell's width as 1/TTC's (inverse_time / s_ttc):
+    # 4e-5 1/s by default, C_TTG >= 0.999 where it is exactly 1, and it scales with smoothing.
     ttg_smoothing = dataclasses.replace(
-        smoothing, inverse_time=min(smoothing.inverse_time, _TTG_TEMPERATURE * config.cost.s_ttg))
+        smoothing, inverse_time=smoothing.inverse_time * config.cost.s_ttg / config.cost.s_ttc)
     inv_ttg = inverse_ttg((end[0], end[1], end[2]), vs[-1], goal, CASADI, ttg_smoothing)
     inv_term = ca.SX(0)
     if config.terminal_cost:
