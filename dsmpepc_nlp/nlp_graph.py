@@ -29,8 +29,8 @@ What the graph sees of the world, and why (numbers: crowded demo scene, map + 12
 - **1/TTG**: its bell is s_ttg = 1e-3 1/s wide, so its soft-clip runs at
   ``inverse_time * s_ttg / s_ttc`` (4e-5 1/s) instead of ``smoothing.inverse_time`` (which
   shifted C_TTG by up to 0.45 where it is 1), and clips the ratio ``v u.(g - p) / |g - p|^2``,
-  not its numerator: clipping the numerator put ``1e-4 log 2 / |g - p|^2`` into 1/TTG, i.e. C_TTG ~ 0 instead of 1 for a horizon ending
-  within 0.1-0.2 m of the goal (``hall``, moving goal: on the sampler's best plans of cycles
+  not its numerator: clipping the numerator put ``1e-4 log 2 / |g - p|^2`` into 1/TTG, i.e.
+  C_TTG ~ 0 instead of 1 for a horizon ending within 0.1-0.2 m of the goal (``hall``, moving goal: on the sampler's best plans of cycles
   2 and 8 the graph's terminal term was -0.00 where the exact one is -0.87 and -0.91).
 - **v_max** is floored at 0 in the graph: SQP iterates left the box by the QP tolerance
   (v_max = -2.8e-3) and the law's smooth speed cap turned the Hessian NaN there: that was the
@@ -57,7 +57,8 @@ with a monotone one. Where the time goes in a newton plan (quiet machine): 2 sta
 solves x 10-15 steps, each one gradient + forward-difference Hessian (0.65 ms) and one trial
 objective (0.07 ms) and the box QP (0.07 ms); packing the models 2 ms per solve (the ray
 marches 0.5 ms; the per-pose nearest objects were 1 ms, now 0.06); exact costing of the ~75
-starts 4.4 ms, of a single z 1.8 ms (numpy per-step overhead), a single rollout 0.9 ms. The
+starts 4.4 ms (since then ~270 starts: 256 screened samples, see ``nlp.py``), of a single z
+1.8 ms (numpy per-step overhead), a single rollout 0.9 ms. The
 targets (20 ms default, 3 ms fast) are still missed: ~30 Newton steps per plan at ~0.9 ms plus
 ~15 ms of numpy packing and exact costing set the floor.
 """
