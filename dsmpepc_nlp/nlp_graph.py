@@ -30,8 +30,9 @@ What the graph sees of the world, and why (numbers: crowded demo scene, map + 12
   ``inverse_time * s_ttg / s_ttc`` (4e-5 1/s) instead of ``smoothing.inverse_time`` (which
   shifted C_TTG by up to 0.45 where it is 1), and clips the ratio ``v u.(g - p) / |g - p|^2``,
   not its numerator: clipping the numerator put ``1e-4 log 2 / |g - p|^2`` into 1/TTG, i.e.
-  C_TTG ~ 0 instead of 1 for a horizon ending within 0.1-0.2 m of the goal (``hall``, moving goal: on the sampler's best plans of cycles
-  2 and 8 the graph's terminal term was -0.00 where the exact one is -0.87 and -0.91).
+  C_TTG ~ 0 instead of 1 for a horizon ending within 0.1-0.2 m of the goal (``hall``, moving
+  goal: on the sampler's best plans of cycles 2 and 8 the graph's terminal term was -0.00
+  where the exact one is -0.87 and -0.91).
 - **v_max** is floored at 0 in the graph: SQP iterates left the box by the QP tolerance
   (v_max = -2.8e-3) and the law's smooth speed cap turned the Hessian NaN there: that was the
   source of the "nlp_hess_l ... NaN detected" warnings.
