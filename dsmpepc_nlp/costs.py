@@ -21,6 +21,7 @@ import numpy as np
 from .config import PlannerConfig
 from .control_law import EXACT, Trajectory
 from .errors import InputError
+from .geometry import footprint_points
 from .smooth import NUMPY, relu, sabs, smax
 
 TERM_NAMES = ("progress", "action", "collision", "heading", "terminal")
@@ -31,15 +32,6 @@ _SIGNIFICANT_BELL = 6.0
 
 
 # --- shared geometric formulas ----------------------------------------------------------------
-
-
-def footprint_points(poses, footprint):
-    """World positions of the footprint circles, ``(..., C, 2)``, for poses ``(..., 3)``."""
-    circles = np.asarray(footprint, dtype=float)
-    cos, sin = np.cos(poses[..., 2:3]), np.sin(poses[..., 2:3])
-    x = poses[..., 0:1] + cos * circles[:, 0] - sin * circles[:, 1]
-    y = poses[..., 1:2] + sin * circles[:, 0] + cos * circles[:, 1]
-    return np.stack([x, y], axis=-1)
 
 
 def disk_inverse_ttc(px, py, wx, wy, radius, smoothing=EXACT, ops=NUMPY):

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from .costs import footprint_points
+from .geometry import footprint_points
 from .world import World
 
 DISCOMFORT_GAP = 0.2

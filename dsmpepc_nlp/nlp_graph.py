@@ -76,6 +76,7 @@ from .config import PlannerConfig, RobotState
 from .control_law import EXACT, clamp_measured, rollout, step_function, target_pose
 from .costs import TERM_NAMES, assemble, disk_inverse_ttc, heading_error, inverse_ttg
 from .errors import InputError
+from .geometry import body_to_world, footprint_points
 from .smooth import CASADI, relu, smax, softmax_objects, softmin_objects
 
 FAR = 1.0e3
@@ -188,7 +189,7 @@ def _static_geometry(pose, speed, map_row, config, smoothing):
     gaps, inverses = [], []
     for c, (cx, cy, radius) in enumerate(footprint):
         row = map_row[MAP_COLUMNS * c:MAP_COLUMNS * (c + 1)]
-        point = (pose[0] + cos * cx - sin * cy, pose[1] + sin * cx + cos * cy)
+        point = body_to_world(pose, cx, cy, ca)
         value, _ = local_quadratic(point, row[:8])
         gap = value - radius
         gaps.append(gap)
@@ -227,8 +228,8 @@ def _dynamic_geometry(pose, speed, time, circles, velocities, config, smoothing,
     centres = circles[:, :2] + time * obj_vel
     gaps, inverses = [], []
     for cx, cy, radius in footprint:
-        px = pose[0] + cos * cx - sin * cy - centres[:, 0]
-        py = pose[1] + sin * cx + cos * cy - centres[:, 1]
+        x, y = body_to_world(pose, cx, cy, ca)
+        px, py = x - centres[:, 0], y - centres[:, 1]
         reach = radius + circles[:, 2]
         gaps.append(ca.sqrt(px * px + py * py) - reach)
         if with_ttc:
@@ -510,10 +511,7 @@ def pack_models(poses, world, goal, config: PlannerConfig) -> tuple:
         step = nav.working_grid.resolution
         nav_model = quadratic_models(nav.value, poses[:, :2], step, nav.gradient)
         euclidean = 0.0
-    cos, sin = np.cos(poses[:, 2:3]), np.sin(poses[:, 2:3])
-    centres = np.stack([poses[:, 0:1] + cos * footprint[:, 0] - sin * footprint[:, 1],
-                        poses[:, 1:2] + sin * footprint[:, 0] + cos * footprint[:, 1]],
-                       -1).reshape(-1, 2)
+    centres = footprint_points(poses, footprint).reshape(-1, 2)
     models = np.zeros((n_poses * n_circles, MAP_COLUMNS))
     if world.grid is None:
         models[:, :2] = centres

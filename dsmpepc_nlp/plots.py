@@ -17,8 +17,8 @@ import numpy as np
 from matplotlib import animation
 from matplotlib.patches import Circle
 
-from .costs import footprint_points
 from .errors import InputError
+from .geometry import footprint_points
 from .sampling import SamplingPlanner, structured_starts
 
 ROBOT_COLOURS = ("tab:blue", "tab:purple", "tab:cyan", "tab:olive", "tab:brown", "tab:pink",

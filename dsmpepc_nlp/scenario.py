@@ -42,6 +42,7 @@ import yaml
 
 from .config import RobotConfig, RobotState
 from .errors import InputError
+from .geometry import footprint_points
 from .simulate import Agent, FixedGoal, FollowGoal, ParkedRobot, Pedestrian, Scenario
 from .world import OccupancyGrid
 
@@ -228,9 +229,7 @@ def _check_against_map(r, grid, agents) -> None:
     for i, agent in enumerate(agents):
         circles = np.asarray((agent.robot or RobotConfig()).footprint, dtype=float)
         s = agent.start
-        cos, sin = np.cos(s.phi), np.sin(s.phi)
-        centres = np.stack([s.x + cos * circles[:, 0] - sin * circles[:, 1],
-                            s.y + sin * circles[:, 0] + cos * circles[:, 1]], axis=-1)
+        centres = footprint_points(s.pose, circles)
         gap = float(np.min(grid.distance(centres) - circles[:, 2]))
         if gap < 0:
             r.fail(f"robots[{i}].start", f"[{s.x}, {s.y}, {s.phi}]: the footprint overlaps the "

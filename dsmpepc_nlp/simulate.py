@@ -37,9 +37,10 @@ import numpy as np
 
 from .config import PlannerConfig, RobotConfig, RobotState, SolverConfig
 from .control_law import arc_step
-from .costs import TERM_NAMES, footprint_points
+from .costs import TERM_NAMES
 from .episode import Episode, config_to_dict, robot_obstacle
 from .errors import InputError
+from .geometry import footprint_points
 from .planner import STATUSES, Planner
 from .world import DynamicObstacle, OccupancyGrid, World
 

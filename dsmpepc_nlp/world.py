@@ -13,6 +13,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from .errors import InputError, finite_vector, positive_number
+from .geometry import body_to_world
 from .mapfile import read_map, write_map
 
 FAR = 1e3
@@ -508,9 +509,7 @@ class DynamicObstacle:
             raise InputError(
                 f"footprint has shape {circles.shape}: expected (m, 3) rows (cx, cy, radius)"
             )
-        c, s = math.cos(phi), math.sin(phi)
-        bx, by = circles[:, 0], circles[:, 1]
-        world = np.stack([x + c * bx - s * by, y + s * bx + c * by], axis=1)
+        world = np.stack(body_to_world((x, y, phi), circles[:, 0], circles[:, 1]), axis=1)
         return cls(world, circles[:, 2], velocity, kind="robot")
 
     def predict(self, times) -> np.ndarray:
