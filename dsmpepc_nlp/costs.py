@@ -22,7 +22,7 @@ from .config import PlannerConfig
 from .control_law import EXACT, Trajectory
 from .errors import InputError
 from .geometry import footprint_points
-from .smooth import NUMPY, relu, sabs, smax
+from .smooth import NUMPY, relu, sabs, sigmoid, smax
 
 TERM_NAMES = ("progress", "action", "collision", "heading", "terminal")
 """The per-term breakdown, in the order of METHOD.md section 5."""
@@ -62,12 +62,8 @@ def disk_inverse_ttc(px, py, wx, wy, radius, smoothing=EXACT, ops=NUMPY):
     dist = ops.sqrt(px * px + py * py + tau * tau)
     approach = -b / dist                                    # closing speed, m/s
     miss = ops.sqrt(relu(px * px + py * py - b * b / (a + tau * tau), 0.0, ops) + floor)  # m
-    gate = _sigmoid(approach / tau, ops) * _sigmoid((radius - miss) / tau, ops)
+    gate = sigmoid(approach / tau, ops) * sigmoid((radius - miss) / tau, ops)
     return gate * num / smax(c, tau * radius, tau * radius, ops)
-
-
-def _sigmoid(x, ops):
-    return 0.5 + 0.5 * ops.tanh(0.5 * x)
 
 
 def inverse_ttg(poses_terminal, v_terminal, goal, ops=NUMPY, smoothing=EXACT):

@@ -77,7 +77,7 @@ from .control_law import EXACT, clamp_measured, rollout, step_function, target_p
 from .costs import TERM_NAMES, assemble, disk_inverse_ttc, heading_error, inverse_ttg
 from .errors import InputError
 from .geometry import body_to_world, footprint_points
-from .smooth import CASADI, relu, smax, softmax_objects, softmin_objects
+from .smooth import CASADI, relu, sigmoid, smax, softmax_objects, softmin_objects
 
 FAR = 1.0e3
 """Distance reported by padding objects and by the map model of a world without a map, m:
@@ -170,10 +170,6 @@ def local_quadratic(point, model):
     return value, grad
 
 
-def _sigmoid(x):
-    return 0.5 + 0.5 * ca.tanh(0.5 * x)
-
-
 def _static_geometry(pose, speed, map_row, config, smoothing):
     """Gap to the map (scalar) and planar 1/TTC (scalar) at one pose from the local models.
 
@@ -203,7 +199,8 @@ def _static_geometry(pose, speed, map_row, config, smoothing):
             inv = ca.if_else(ca.fmin(gap, along) <= 0, np.inf,
                              hit * ca.fmax(closing, 0.0) / ca.fmax(along, 1e-300))
         else:
-            gate = _sigmoid((closing * reach - speed * along) / (t_dist * config.robot.v_limit))
+            gate = sigmoid((closing * reach - speed * along) / (t_dist * config.robot.v_limit),
+                           CASADI)
             inv = gate * relu(closing, t_dist, CASADI) / smax(along, t_dist, t_dist, CASADI)
         inverses.append(inv)
     gap = softmin_objects(ca.horzcat(*gaps), t_dist, CASADI) if len(gaps) > 1 else gaps[0]

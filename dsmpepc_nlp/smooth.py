@@ -180,6 +180,14 @@ def smin_positive(a, b, temperature, ops):
     return low * (1.0 + ratio ** (1.0 / temperature)) ** (-temperature)
 
 
+def sigmoid(x, ops):
+    """The logistic function ``1 / (1 + exp(-x))``, written with tanh so it never overflows.
+
+    ``sigmoid(x / t)`` is the smooth stand-in of the step ``x > 0`` at temperature ``t``.
+    """
+    return 0.5 + 0.5 * ops.tanh(0.5 * x)
+
+
 def sabs(x, temperature, ops):
     """``|x|``; smooth: ``sqrt(x^2 + t^2)``, above |x| by at most t."""
     if _is_exact(temperature):

@@ -72,3 +72,18 @@ def test_casadi_backend_evaluates_the_same_formulas():
     np.testing.assert_allclose(np.array(soft).ravel(),
                                softmin_objects(value[None], 0.05, NUMPY)[0, :, 0], atol=1e-12)
     np.testing.assert_allclose(np.array(cum), np.cumprod(value, axis=0), atol=1e-12)
+
+
+def test_sigmoid_is_a_smooth_step_without_overflow():
+    from dsmpepc_nlp.smooth import sigmoid
+
+    x = np.array([-1e6, -5.0, 0.0, 5.0, 1e6])
+    with np.errstate(all="raise"):
+        value = sigmoid(x, NUMPY)
+    np.testing.assert_allclose(value, 1.0 / (1.0 + np.exp(-np.clip(x, -700, 700))), atol=1e-15)
+    for t in (0.1, 0.01):     # as a step of x > 0 at temperature t, away from 0
+        np.testing.assert_allclose(sigmoid(np.array([-1.0, 1.0]) / t, NUMPY), [0.0, 1.0],
+                                   atol=2 * np.exp(-1.0 / t))
+    symbol = ca.SX.sym("x")
+    f = ca.Function("s", [symbol], [sigmoid(symbol, CASADI)])
+    assert float(f(5.0)) == pytest.approx(float(sigmoid(np.array(5.0), NUMPY)), abs=1e-15)
