@@ -1,6 +1,6 @@
 """DS-MPEPC local navigation as a CasADi nonlinear program, with an exact sampling verifier."""
 
-from .config import (
+from .core.config import (
     BoundsConfig,
     ControlLawConfig,
     CostConfig,
@@ -12,10 +12,10 @@ from .config import (
     SmoothingConfig,
     SolverConfig,
 )
-from .control_law import Trajectory, rollout, rollout_function
-from .costs import CostBreakdown, evaluate
-from .planner import Plan, Planner, StartRecord
-from .world import DynamicObstacle, NavigationFunction, OccupancyGrid, World
+from .core.control_law import Trajectory, rollout, rollout_function
+from .core.costs import CostBreakdown, evaluate
+from .solve.planner import Plan, Planner, StartRecord
+from .core.world import DynamicObstacle, NavigationFunction, OccupancyGrid, World
 
 __all__ = [
     "BoundsConfig", "ControlLawConfig", "CostBreakdown", "CostConfig", "DockingConfig",

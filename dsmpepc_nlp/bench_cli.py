@@ -19,8 +19,8 @@ import math
 import sys
 from pathlib import Path
 
-from .errors import InputError
-from .results import dumps, parse_indices
+from .core.errors import InputError
+from .bench.results import dumps, parse_indices
 
 EXIT_BAD_INPUT = 2
 
@@ -42,7 +42,7 @@ def _common(parser, out_default: str) -> None:
 
 def register(subparsers) -> None:
     """Add ``benchmark`` (with ``barn`` and ``crowd``) and ``sweep`` to a subparsers object."""
-    from .barn import DEFAULT_RESOLUTION, DEFAULT_V_LIMIT, TIME_LIMIT
+    from .bench.barn import DEFAULT_RESOLUTION, DEFAULT_V_LIMIT, TIME_LIMIT
 
     bench = subparsers.add_parser("benchmark", help="run a public benchmark",
                                   description="Run BARN worlds, ETH/UCY crowd crossings or "
@@ -108,7 +108,7 @@ def register(subparsers) -> None:
 
 
 def _run_barn(args) -> dict:
-    from .barn import BarnSettings, run_benchmark
+    from .bench.barn import BarnSettings, run_benchmark
 
     worlds = parse_indices(args.worlds, "--worlds")
     if not Path(args.data).is_dir():
@@ -124,7 +124,7 @@ def _run_barn(args) -> dict:
 
 
 def _overrides(specs) -> tuple:
-    from .sweep import parse_params
+    from .bench.sweep import parse_params
 
     params = parse_params(specs)
     for name, values in params.items():
@@ -134,7 +134,7 @@ def _overrides(specs) -> tuple:
 
 
 def _run_crowd(args) -> dict:
-    from .crowds import CrowdSettings, run_benchmark
+    from .bench.crowds import CrowdSettings, run_benchmark
 
     settings = CrowdSettings(data=str(Path(args.data).resolve()), scene=args.scene,
                              solver=args.solver, n_samples=args.samples,
@@ -145,7 +145,7 @@ def _run_crowd(args) -> dict:
 
 
 def _run_sweep(args) -> dict:
-    from .sweep import SweepSettings, parse_params, run_sweep
+    from .bench.sweep import SweepSettings, parse_params, run_sweep
 
     params = parse_params(args.param)
     scenarios = [s for s in args.scenarios.split(",") if s]
@@ -157,7 +157,7 @@ def _run_sweep(args) -> dict:
 
 
 def _run_scenarios(args) -> dict:
-    from .sweep import SweepSettings, run_scenarios
+    from .bench.sweep import SweepSettings, run_scenarios
 
     settings = SweepSettings(solver=args.solver, n_samples=args.samples,
                              start_noise=args.start_noise)

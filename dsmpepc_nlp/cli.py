@@ -16,8 +16,8 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 
-from .config import VARIANTS, PlannerConfig, SolverConfig
-from .errors import InputError
+from .core.config import VARIANTS, PlannerConfig, SolverConfig
+from .core.errors import InputError
 
 matplotlib.use("Agg")  # files only; the command line never opens a window
 
@@ -71,7 +71,7 @@ def _solver(name: str) -> SolverConfig:
     solver = SolverConfig.named(name)
     if solver.method != "sampling":
         try:
-            from . import nlp  # noqa: F401
+            from .solve import nlp  # noqa: F401
         except ImportError as exc:
             raise UsageError(f"--solver {name}: the NLP solver is not available ({exc}); "
                              "use --solver sampling") from None
@@ -99,8 +99,8 @@ def run_one(scenario, variant: str, solver_name: str, seed: int, out: Path, *,
             animate: bool = False, sample_cycles: int = DEFAULT_SAMPLE_CYCLES,
             figure: bool = True) -> dict:
     """Simulate one scenario with one variant; write the episode and figures; return a summary."""
-    from .metrics import episode_metrics, json_safe
-    from .simulate import simulate
+    from .sim.metrics import episode_metrics, json_safe
+    from .sim.simulate import simulate
 
     config = PlannerConfig.variant(variant)
     solver = _solver(solver_name)
@@ -114,7 +114,7 @@ def run_one(scenario, variant: str, solver_name: str, seed: int, out: Path, *,
     stem = f"{scenario.name}-{variant}-{solver_name}-seed{seed}"
     files = {"episode": str(episode.save(out / f"{stem}.npz"))}
     if figure or animate:
-        from . import plots
+        from .viz import plots
 
         if figure:
             files["figure"] = str(plots.episode_figure(episode, path=out / f"{stem}.png"))
@@ -159,7 +159,7 @@ def metrics_table(rows: list) -> str:
 
 
 def cmd_list(args) -> int:
-    from .scenario import builtin_names, load_scenario
+    from .sim.scenario import builtin_names, load_scenario
 
     items = []
     for name in builtin_names():
@@ -176,7 +176,7 @@ def cmd_list(args) -> int:
 
 
 def cmd_run(args) -> int:
-    from .scenario import load_scenario
+    from .sim.scenario import load_scenario
 
     scenario = load_scenario(args.scenario)
     summary = run_one(scenario, args.variant, args.solver, args.seed, Path(args.out),
@@ -195,7 +195,7 @@ def cmd_run(args) -> int:
 
 def _cost_panels(episode, seconds: float, out: Path) -> Path:
     """The paper's Fig. 2 panels for the first robot's planning cycle nearest ``seconds``."""
-    from . import plots
+    from .viz import plots
 
     inputs = episode.planning_inputs(0)
     planned = episode.times[:-1][episode.active[0]]
@@ -208,8 +208,8 @@ def _cost_panels(episode, seconds: float, out: Path) -> Path:
 
 
 def cmd_compare(args) -> int:
-    from . import plots
-    from .scenario import load_scenario
+    from .viz import plots
+    from .sim.scenario import load_scenario
 
     scenario = load_scenario(args.scenario)
     variants = args.variants
@@ -317,10 +317,10 @@ def _positive(value: str) -> int:
 
 
 def cmd_crosscheck(args) -> int:
-    from . import plots
-    from .crosscheck import crosscheck
-    from .scenario import load_scenario
-    from .simulate import simulate
+    from .viz import plots
+    from .bench.crosscheck import crosscheck
+    from .sim.scenario import load_scenario
+    from .sim.simulate import simulate
 
     if args.solver == "sampling":
         raise UsageError("crosscheck --solver: must be nlp or fast (sampling is the reference)")
@@ -349,7 +349,7 @@ def cmd_crosscheck(args) -> int:
                    statuses={s: result.nlp_status.count(s) for s in set(result.nlp_status)},
                    figure=str(figure))
     if args.json:
-        from .metrics import json_safe
+        from .sim.metrics import json_safe
 
         print(json.dumps(json_safe(summary), allow_nan=False))
         return 0
@@ -362,8 +362,8 @@ def cmd_crosscheck(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    from .benchmark import run_bench
-    from .metrics import json_safe
+    from .bench.timing import run_bench
+    from .sim.metrics import json_safe
 
     _solver("nlp")
     print(f"[bench] timing {args.cycles} cycles of the crowded demo scene", file=sys.stderr)

@@ -3,9 +3,9 @@
 import casadi as ca
 import numpy as np
 
-from dsmpepc_nlp.config import PlannerConfig, RobotState
-from dsmpepc_nlp.nlp import GraphSizes, cost_function, pack_parameters
-from dsmpepc_nlp.world import DynamicObstacle, OccupancyGrid, World
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState
+from dsmpepc_nlp.solve.nlp import GraphSizes, cost_function, pack_parameters
+from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 
 config = PlannerConfig()
 sizes = GraphSizes(max_objects=4, near_objects=2)   # small: builds fast

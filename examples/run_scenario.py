@@ -12,13 +12,13 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 
-from dsmpepc_nlp.config import PlannerConfig, SolverConfig
-from dsmpepc_nlp.metrics import episode_metrics
-from dsmpepc_nlp.scenario import load_scenario
-from dsmpepc_nlp.simulate import Episode, simulate
+from dsmpepc_nlp.core.config import PlannerConfig, SolverConfig
+from dsmpepc_nlp.sim.metrics import episode_metrics
+from dsmpepc_nlp.sim.scenario import load_scenario
+from dsmpepc_nlp.sim.simulate import Episode, simulate
 
 matplotlib.use("Agg")
-from dsmpepc_nlp import plots  # noqa: E402  (after choosing the backend)
+from dsmpepc_nlp.viz import plots  # noqa: E402  (after choosing the backend)
 
 out = Path(os.environ.get("DSMPEPC_EXAMPLE_OUT", "out"))
 scenario = dataclasses.replace(load_scenario("t-corridor"), duration=6.0)

@@ -10,9 +10,9 @@ import os
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.config import PlannerConfig, SolverConfig
-from dsmpepc_nlp.scenario import load_scenario
-from dsmpepc_nlp.simulate import simulate
+from dsmpepc_nlp.core.config import PlannerConfig, SolverConfig
+from dsmpepc_nlp.sim.scenario import load_scenario
+from dsmpepc_nlp.sim.simulate import simulate
 
 pytestmark = pytest.mark.slow
 

@@ -8,7 +8,7 @@ import pytest
 import yaml
 
 from dsmpepc_nlp.cli import main
-from dsmpepc_nlp.simulate import Episode
+from dsmpepc_nlp.sim.simulate import Episode
 
 TINY = {
     "name": "tiny",

@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from dsmpepc_nlp.config import (
+from dsmpepc_nlp.core.config import (
     BoundsConfig,
     ControlLawConfig,
     CostConfig,

@@ -8,9 +8,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from dsmpepc_nlp.config import PlannerConfig, RobotState, SmoothingConfig, SolverConfig
-from dsmpepc_nlp.control_law import rollout
-from dsmpepc_nlp.costs import (
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SmoothingConfig, SolverConfig
+from dsmpepc_nlp.core.control_law import rollout
+from dsmpepc_nlp.core.costs import (
     TERM_NAMES,
     assemble,
     collision_probability,
@@ -18,8 +18,8 @@ from dsmpepc_nlp.costs import (
     evaluate,
     inverse_ttg,
 )
-from dsmpepc_nlp.planner import Planner
-from dsmpepc_nlp.world import DynamicObstacle, OccupancyGrid, World
+from dsmpepc_nlp.solve.planner import Planner
+from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 
 DS = PlannerConfig.ds_mpepc()
 MP = PlannerConfig.mpepc()

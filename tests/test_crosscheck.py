@@ -4,8 +4,8 @@ import math
 
 import numpy as np
 
-from dsmpepc_nlp.config import PlannerConfig, SolverConfig
-from dsmpepc_nlp.crosscheck import CrosscheckResult, crosscheck, demo_cycles
+from dsmpepc_nlp.core.config import PlannerConfig, SolverConfig
+from dsmpepc_nlp.bench.crosscheck import CrosscheckResult, crosscheck, demo_cycles
 
 
 def test_demo_cycles_are_reproducible_and_move_the_robot():
@@ -35,7 +35,7 @@ def test_share_within_tol_counts_non_finite_as_miss():
 
 
 def test_run_bench_shape():
-    from dsmpepc_nlp.benchmark import run_bench
+    from dsmpepc_nlp.bench.timing import run_bench
 
     result = run_bench(n_cycles=1, ladder=(64,))
     for name in ("default", "fast", "sampling"):

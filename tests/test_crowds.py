@@ -5,7 +5,8 @@ import json
 import numpy as np
 import pytest
 
-from dsmpepc_nlp import bench_cli, crowds
+from dsmpepc_nlp import bench_cli
+from dsmpepc_nlp.bench import crowds
 
 
 def write_recording(path, n_steps=150, first_frame=0):

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.config import PlannerConfig, RobotState, SolverConfig
-from dsmpepc_nlp.simulate import Agent, FixedGoal, ParkedRobot, Pedestrian, Scenario, simulate
-from dsmpepc_nlp.world import OccupancyGrid
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
+from dsmpepc_nlp.sim.simulate import Agent, FixedGoal, ParkedRobot, Pedestrian, Scenario, simulate
+from dsmpepc_nlp.core.world import OccupancyGrid
 
 TIMING = {"plan_time"}
 """Wall times are the only logged quantities allowed to differ between runs."""

@@ -10,10 +10,10 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from dsmpepc_nlp.config import PlannerConfig, RobotConfig, RobotState, SolverConfig
-from dsmpepc_nlp.planner import Planner
-from dsmpepc_nlp.simulate import OUTCOMES, Agent, FixedGoal, Pedestrian, Scenario, simulate
-from dsmpepc_nlp.world import DynamicObstacle, OccupancyGrid, World
+from dsmpepc_nlp.core.config import PlannerConfig, RobotConfig, RobotState, SolverConfig
+from dsmpepc_nlp.solve.planner import Planner
+from dsmpepc_nlp.sim.simulate import OUTCOMES, Agent, FixedGoal, Pedestrian, Scenario, simulate
+from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 
 SLOW = os.environ.get("HYPOTHESIS_PROFILE") == "slow"
 EXAMPLES = 10_000 if SLOW else 1_000

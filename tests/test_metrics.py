@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.config import PlannerConfig, RobotState, SolverConfig
-from dsmpepc_nlp.metrics import (
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
+from dsmpepc_nlp.sim.metrics import (
     discomfort,
     episode_metrics,
     following_distance,
@@ -21,8 +21,8 @@ from dsmpepc_nlp.metrics import (
     smoothness,
     time_to_goal,
 )
-from dsmpepc_nlp.simulate import Agent, FixedGoal, Pedestrian, Scenario, simulate
-from dsmpepc_nlp.world import OccupancyGrid
+from dsmpepc_nlp.sim.simulate import Agent, FixedGoal, Pedestrian, Scenario, simulate
+from dsmpepc_nlp.core.world import OccupancyGrid
 
 
 def straight_episode(outcome="success", n=11, dt=0.2):

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from dsmpepc_nlp import config as config_module
-from dsmpepc_nlp.newton import box_qp, minimize
+from dsmpepc_nlp.core import config as config_module
+from dsmpepc_nlp.solve.newton import box_qp, minimize
 
 
 @pytest.mark.parametrize("convex", [False, True])
@@ -55,11 +55,11 @@ def test_minimize_never_accepts_an_increase():
 @pytest.mark.skipif("newton" not in config_module.SOLVER_METHODS,
                     reason="SolverConfig does not offer method='newton' yet")
 def test_newton_nlp_solver_records_are_finite_and_in_the_box():
-    from dsmpepc_nlp.config import PlannerConfig, RobotState, SolverConfig
-    from dsmpepc_nlp.nlp import NlpSolver
-    from dsmpepc_nlp.nlp_graph import GraphSizes
-    from dsmpepc_nlp.sampling import structured_starts
-    from dsmpepc_nlp.world import DynamicObstacle, World
+    from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
+    from dsmpepc_nlp.solve.nlp import NlpSolver
+    from dsmpepc_nlp.solve.nlp_graph import GraphSizes
+    from dsmpepc_nlp.solve.sampling import structured_starts
+    from dsmpepc_nlp.core.world import DynamicObstacle, World
 
     cfg = PlannerConfig()
     solver = NlpSolver(cfg, SolverConfig(method="newton", max_iter=15),

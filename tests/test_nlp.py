@@ -4,14 +4,14 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from dsmpepc_nlp import nlp_graph
-from dsmpepc_nlp.config import PlannerConfig, RobotState, SmoothingConfig, SolverConfig
-from dsmpepc_nlp.control_law import rollout
-from dsmpepc_nlp.costs import TERM_NAMES, assemble, evaluate, exact_geometry
-from dsmpepc_nlp.nlp import NlpSolver, cost_function
-from dsmpepc_nlp.sampling import SamplingPlanner, structured_starts
-from dsmpepc_nlp.smooth import CASADI
-from dsmpepc_nlp.world import DynamicObstacle, OccupancyGrid, World
+from dsmpepc_nlp.solve import nlp_graph
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SmoothingConfig, SolverConfig
+from dsmpepc_nlp.core.control_law import rollout
+from dsmpepc_nlp.core.costs import TERM_NAMES, assemble, evaluate, exact_geometry
+from dsmpepc_nlp.solve.nlp import NlpSolver, cost_function
+from dsmpepc_nlp.solve.sampling import SamplingPlanner, structured_starts
+from dsmpepc_nlp.core.smooth import CASADI
+from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 
 CONFIG = PlannerConfig()
 SMALL = nlp_graph.GraphSizes(max_objects=3, near_objects=2)
@@ -88,7 +88,7 @@ def _walled_world():
 
 
 def _demo_cycle():
-    from dsmpepc_nlp.crosscheck import demo_cycles
+    from dsmpepc_nlp.bench.crosscheck import demo_cycles
 
     return demo_cycles(CONFIG, 4, seed=0, n_samples=64)[3]
 
@@ -183,7 +183,7 @@ def test_solve_survives_unusual_worlds(world):
 
 
 def test_open_space_nlp_matches_or_beats_4096_samples():
-    from dsmpepc_nlp.planner import Planner
+    from dsmpepc_nlp.solve.planner import Planner
 
     state, world, goal = RobotState(0.0, 0.0, 0.0), World(None, ()), np.array([6.0, 0.5])
     planner = Planner(CONFIG, SolverConfig(n_spread=2, max_iter=20))
@@ -195,7 +195,7 @@ def test_open_space_nlp_matches_or_beats_4096_samples():
 
 def test_robot_starting_in_collision_does_not_move():
     """Lemma 3 through the Planner with the NLP solver."""
-    from dsmpepc_nlp.planner import Planner
+    from dsmpepc_nlp.solve.planner import Planner
 
     world = World(None, [DynamicObstacle.pedestrian([0.2, 0.0], [0.0, 0.0])])
     state, goal = RobotState(0.0, 0.0, 0.0), np.array([5.0, 0.0])

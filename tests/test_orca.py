@@ -6,13 +6,13 @@ import sys
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.config import PlannerConfig, RobotState
-from dsmpepc_nlp.world import OccupancyGrid, World
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState
+from dsmpepc_nlp.core.world import OccupancyGrid, World
 
 pytest.importorskip("pyrvo")
 
-from dsmpepc_nlp import orca  # noqa: E402
-from dsmpepc_nlp.simulate import Agent, FixedGoal, Pedestrian, Scenario  # noqa: E402
+from dsmpepc_nlp.bench import orca  # noqa: E402
+from dsmpepc_nlp.sim.simulate import Agent, FixedGoal, Pedestrian, Scenario  # noqa: E402
 
 
 def test_unicycle_conversion():
@@ -41,7 +41,7 @@ def test_grid_polygons_are_counter_clockwise_rectangles():
 
 
 def test_velocity_avoids_head_on_pedestrian():
-    from dsmpepc_nlp.world import DynamicObstacle
+    from dsmpepc_nlp.core.world import DynamicObstacle
 
     planner = orca.OrcaPlanner(PlannerConfig())
     state = RobotState(0.0, 0.0, 0.0, v=1.0)

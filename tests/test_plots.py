@@ -4,10 +4,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
-from dsmpepc_nlp import plots
-from dsmpepc_nlp.config import PlannerConfig, RobotState, SolverConfig
-from dsmpepc_nlp.simulate import Agent, FixedGoal, Pedestrian, Scenario, simulate
-from dsmpepc_nlp.world import OccupancyGrid, World
+from dsmpepc_nlp.viz import plots
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
+from dsmpepc_nlp.sim.simulate import Agent, FixedGoal, Pedestrian, Scenario, simulate
+from dsmpepc_nlp.core.world import OccupancyGrid, World
 
 
 @pytest.fixture(scope="module")

@@ -5,8 +5,8 @@ import os
 
 import pytest
 
-from dsmpepc_nlp import results
-from dsmpepc_nlp.results import ResultTable, atomic_write_text, parse_indices
+from dsmpepc_nlp.bench import results
+from dsmpepc_nlp.bench.results import ResultTable, atomic_write_text, parse_indices
 
 
 def test_atomic_write_leaves_old_file_and_no_temp_on_error(tmp_path, monkeypatch):
@@ -83,7 +83,7 @@ def test_atomic_writes_get_ordinary_permissions(tmp_path):
     import os
     import stat
 
-    from dsmpepc_nlp.files import atomic_write_text
+    from dsmpepc_nlp.core.files import atomic_write_text
 
     path = atomic_write_text(tmp_path / "table.csv", "a,b\n")
     mask = os.umask(0)

@@ -5,11 +5,11 @@ import math
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.config import PlannerConfig, RobotState, SolverConfig
-from dsmpepc_nlp.errors import InputError
-from dsmpepc_nlp.planner import Planner
-from dsmpepc_nlp.sampling import evaluate_batch
-from dsmpepc_nlp.world import DynamicObstacle, OccupancyGrid, World
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
+from dsmpepc_nlp.core.errors import InputError
+from dsmpepc_nlp.solve.planner import Planner
+from dsmpepc_nlp.solve.sampling import evaluate_batch
+from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 
 SAMPLING = SolverConfig.sampling(n_samples=256)
 

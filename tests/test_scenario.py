@@ -6,15 +6,15 @@ import numpy as np
 import pytest
 import yaml
 
-from dsmpepc_nlp.errors import InputError
-from dsmpepc_nlp.scenario import (
+from dsmpepc_nlp.core.errors import InputError
+from dsmpepc_nlp.sim.scenario import (
     ScenarioError,
     builtin_names,
     load_scenario,
     parse_scenario,
 )
-from dsmpepc_nlp.simulate import FixedGoal, FollowGoal
-from dsmpepc_nlp.world import OccupancyGrid
+from dsmpepc_nlp.sim.simulate import FixedGoal, FollowGoal
+from dsmpepc_nlp.core.world import OccupancyGrid
 
 BUILTINS = ["circle-10", "circle-4", "hall", "l-corridor", "narrow-corridor", "t-corridor"]
 

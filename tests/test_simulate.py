@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.config import PlannerConfig, RobotConfig, RobotState, SolverConfig
-from dsmpepc_nlp.simulate import (
+from dsmpepc_nlp.core.config import PlannerConfig, RobotConfig, RobotState, SolverConfig
+from dsmpepc_nlp.sim.simulate import (
     Agent,
     Episode,
     FixedGoal,
@@ -16,7 +16,7 @@ from dsmpepc_nlp.simulate import (
     Scenario,
     simulate,
 )
-from dsmpepc_nlp.world import OccupancyGrid
+from dsmpepc_nlp.core.world import OccupancyGrid
 
 SOLVER = SolverConfig(method="sampling", n_samples=256)
 CONFIG = PlannerConfig.variant("ds-mpepc")
@@ -53,7 +53,7 @@ def test_reaches_a_fixed_goal_and_stops():
 
 
 def test_each_step_is_the_exact_arc_of_the_logged_command():
-    from dsmpepc_nlp.control_law import arc_step
+    from dsmpepc_nlp.core.control_law import arc_step
 
     ep = run(open_scenario())
     for k in range(5):
@@ -194,7 +194,7 @@ def test_save_load_round_trip_is_exact_and_atomic(tmp_path):
     state, world, goal = inputs[0]
     assert world.grid is not None and len(world.obstacles) == 1
     # the cost logged is the exact cost of the logged z in the reconstructed world
-    from dsmpepc_nlp.sampling import evaluate_batch
+    from dsmpepc_nlp.solve.sampling import evaluate_batch
 
     again = evaluate_batch(ep.z[0, 0], state, world, goal, CONFIG)
     assert again.costs.total[0] == pytest.approx(ep.cost_total[0, 0])

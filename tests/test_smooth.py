@@ -4,7 +4,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.smooth import (
+from dsmpepc_nlp.core.smooth import (
     CASADI,
     NUMPY,
     relu,
@@ -75,7 +75,7 @@ def test_casadi_backend_evaluates_the_same_formulas():
 
 
 def test_sigmoid_is_a_smooth_step_without_overflow():
-    from dsmpepc_nlp.smooth import sigmoid
+    from dsmpepc_nlp.core.smooth import sigmoid
 
     x = np.array([-1e6, -5.0, 0.0, 5.0, 1e6])
     with np.errstate(all="raise"):

@@ -4,7 +4,8 @@ import json
 
 import pytest
 
-from dsmpepc_nlp import bench_cli, sweep
+from dsmpepc_nlp import bench_cli
+from dsmpepc_nlp.bench import sweep
 
 TINY = """name: tiny
 duration: 0.6

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from dsmpepc_nlp.world import (
+from dsmpepc_nlp.core.world import (
     FAR,
     DynamicObstacle,
     NavigationFunction,

@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 
-from .config import PlannerConfig, SolverConfig
+from ..core.config import PlannerConfig, SolverConfig
 from .crosscheck import demo_cycles
 
 LADDER = (64, 128, 256, 512, 1024, 2048, 4096, 8192, 16384)
@@ -44,7 +44,7 @@ def run_bench(n_cycles: int = 20, seed: int = 0, config: PlannerConfig | None = 
         ``exact_cost_median`` for the NLPs, ``samples_median`` for sampling);
         ``ratio_default_to_sampling``; ``cycles``; ``table`` (printable).
     """
-    from .planner import Planner
+    from ..solve.planner import Planner
 
     config = PlannerConfig() if config is None else config
     cycles = demo_cycles(config, n_cycles, seed)

@@ -16,8 +16,8 @@ import json
 import math
 from pathlib import Path
 
-from .errors import InputError
-from .files import atomic_savefig, atomic_write_bytes, atomic_write_text  # noqa: F401 (re-exported)
+from ..core.errors import InputError
+from ..core.files import atomic_savefig, atomic_write_bytes, atomic_write_text  # noqa: F401 (re-exported)
 
 TABLE_FORMAT = 1
 """Version of the JSON layout written by :class:`ResultTable`."""

@@ -10,8 +10,8 @@ import math
 
 import numpy as np
 
-from .geometry import footprint_points
-from .world import World
+from ..core.geometry import footprint_points
+from ..core.world import World
 
 DISCOMFORT_GAP = 0.2
 """A pedestrian closer than this (gap between footprint and pedestrian circle, m) is discomfort."""

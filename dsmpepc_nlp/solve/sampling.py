@@ -8,9 +8,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import qmc
 
-from .config import PlannerConfig, RobotState, SolverConfig
-from .control_law import Trajectory, rollout, wrap, z_from_target
-from .costs import CostBreakdown, evaluate
+from ..core.config import PlannerConfig, RobotState, SolverConfig
+from ..core.control_law import Trajectory, rollout, wrap, z_from_target
+from ..core.costs import CostBreakdown, evaluate
 
 SOFT_TURN = 0.6
 """|delta| of the soft-turn starts, rad (our choice: about a third of the box)."""

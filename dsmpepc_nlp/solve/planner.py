@@ -9,10 +9,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .config import PlannerConfig, RobotState, SolverConfig
-from .control_law import Trajectory, rollout, z_from_target
-from .costs import TERM_NAMES, CostBreakdown
-from .errors import InputError
+from ..core.config import PlannerConfig, RobotState, SolverConfig
+from ..core.control_law import Trajectory, rollout, z_from_target
+from ..core.costs import TERM_NAMES, CostBreakdown
+from ..core.errors import InputError
 from .sampling import Evaluation, SamplingPlanner, clip_to_bounds, evaluate_batch, structured_starts
 
 STATUSES = ("nlp", "sampling", "sampling-fallback", "docked", "stopped")

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .config import PlannerConfig, RobotState, SolverConfig
+from ..core.config import PlannerConfig, RobotState, SolverConfig
 
 INSTALL_HINT = 'the ORCA baseline needs pyrvo: pip install "dsmpepc_nlp[orca]"'
 
@@ -61,8 +61,8 @@ def require_pyrvo():
 
 def check_variants(variants) -> None:
     """Every name is ``orca`` or a planner variant; pyrvo is importable when ``orca`` is asked."""
-    from .config import VARIANTS
-    from .errors import InputError
+    from ..core.config import VARIANTS
+    from ..core.errors import InputError
 
     for v in variants:
         if v != "orca" and v not in VARIANTS:
@@ -228,7 +228,7 @@ class OrcaPlanner:
     def plan(self, state: RobotState, world, goal, *, dock: bool = True,
              sample: bool = False) -> OrcaPlan:
         """One cycle: ORCA's velocity, converted to ``(v, omega)``; ``dock``/``sample`` unused."""
-        from .control_law import arc_step
+        from ..core.control_law import arc_step
 
         started = time.perf_counter()
         u = self.holonomic_velocity(state, world, goal)
@@ -240,7 +240,7 @@ class OrcaPlanner:
         for k in range(n):
             poses[k + 1] = arc_step(poses[k], v, omega, dt)
         nan = math.nan
-        from .costs import TERM_NAMES
+        from ..core.costs import TERM_NAMES
 
         cost = _Costs({name: nan for name in TERM_NAMES}, np.full(n + 1, nan))
         trajectory = _Trajectory(poses, np.full(n, v), np.full(n, omega),
@@ -256,7 +256,7 @@ def _planner_class(factory):
     ``simulate`` builds ``Planner(config, solver)`` itself; swapping that name for the call is
     how the baseline runs in the very same loop (outcomes, metrics and logs unchanged).
     """
-    from . import simulate as sim_module
+    from ..sim import simulate as sim_module
 
     original = sim_module.Planner
     sim_module.Planner = factory
@@ -274,7 +274,7 @@ def simulate_orca(scenario, config: PlannerConfig, rng=None, **kwargs):
     """
     import inspect
 
-    from .simulate import simulate
+    from ..sim.simulate import simulate
 
     require_pyrvo()
     solver = SolverConfig.sampling(n_samples=1)

@@ -17,9 +17,9 @@ import numpy as np
 from matplotlib import animation
 from matplotlib.patches import Circle
 
-from .errors import InputError
-from .geometry import footprint_points
-from .sampling import SamplingPlanner, structured_starts
+from ..core.errors import InputError
+from ..core.geometry import footprint_points
+from ..solve.sampling import SamplingPlanner, structured_starts
 
 ROBOT_COLOURS = ("tab:blue", "tab:purple", "tab:cyan", "tab:olive", "tab:brown", "tab:pink",
                  "navy", "teal", "darkorange", "slategray")
@@ -146,7 +146,7 @@ def cost_panels(state, world, goal, config, *, n_samples: int = 4096, n_best: in
     MPEPC, (c) the ``n_best`` with the lowest time to goal, (d) the ``n_best`` with the highest
     terminal time to collision. ``config`` supplies everything but the two switches.
     """
-    from .config import SolverConfig
+    from ..core.config import SolverConfig
 
     mpepc = dataclasses.replace(config, anticipatory_pc=False, terminal_cost=False)
     ds = dataclasses.replace(config, anticipatory_pc=True, terminal_cost=True)

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from dsmpepc_nlp.world import OccupancyGrid
+from dsmpepc_nlp.core.world import OccupancyGrid
 
 HERE = Path(__file__).resolve().parent
 

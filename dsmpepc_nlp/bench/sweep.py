@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import PlannerConfig, SolverConfig
+from ..core.config import PlannerConfig, SolverConfig
 from .results import ResultTable, atomic_savefig
 
 SECTIONS = ("robot", "control_law", "horizon", "bounds", "cost", "smoothing", "docking")
@@ -121,9 +121,9 @@ def run_one(run: dict, settings: SweepSettings) -> dict:
         row["variant"] = run["variant"]
     started = time.perf_counter()
     try:
-        from .metrics import episode_metrics
-        from .scenario import load_scenario
-        from .simulate import simulate
+        from ..sim.metrics import episode_metrics
+        from ..sim.scenario import load_scenario
+        from ..sim.simulate import simulate
 
         variant = run.get("variant", settings.variant)
         config = configure(run["params"], "ds-mpepc" if variant == "orca" else variant)
@@ -231,7 +231,7 @@ def run_sweep(params: dict, scenarios, seeds, settings: SweepSettings, out_dir, 
         raise ValueError("--param: give at least one NAME=V1,V2,...")
     if not scenarios:
         raise ValueError("--scenarios: give at least one scenario")
-    from .scenario import load_scenario
+    from ..sim.scenario import load_scenario
 
     for name in scenarios:  # a bad name fails here, not as N failed rows
         load_scenario(name)
@@ -322,7 +322,7 @@ def run_scenarios(variants, scenarios, seeds, settings: SweepSettings, out_dir, 
     per variant and scenario, the rates over seeds and robots.
     """
     from .orca import check_variants
-    from .scenario import load_scenario
+    from ..sim.scenario import load_scenario
 
     progress = sys.stderr if progress is True else progress or None
     check_variants(variants)

@@ -34,10 +34,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import PlannerConfig, RobotConfig, RobotState, SolverConfig
-from .errors import InputError
+from ..core.config import PlannerConfig, RobotConfig, RobotState, SolverConfig
+from ..core.errors import InputError
 from .results import ResultTable, atomic_savefig
-from .world import OccupancyGrid
+from ..core.world import OccupancyGrid
 
 CELL = 0.15
 """BARN cell side and cylinder diameter, m."""
@@ -237,7 +237,7 @@ def load_world(data_dir, index: int, resolution: float = DEFAULT_RESOLUTION) -> 
 
 def scenario(world: BarnWorld, robot: RobotConfig | None = None, time_limit=TIME_LIMIT):
     """The challenge run on ``world`` as a :class:`~dsmpepc_nlp.simulate.Scenario`."""
-    from .simulate import Agent, FixedGoal, Scenario
+    from ..sim.simulate import Agent, FixedGoal, Scenario
 
     agent = Agent("jackal", RobotState(*START), FixedGoal(GOAL, GOAL_TOLERANCE),
                   robot=robot or jackal_robot())
@@ -289,8 +289,8 @@ def solver_config(name: str, n_samples: int | None = None) -> SolverConfig:
 
 def run_world(index: int, settings: BarnSettings) -> dict:
     """Run one world; the result row (never raises: an exception becomes ``outcome = error``)."""
-    from .metrics import episode_metrics
-    from .simulate import simulate
+    from ..sim.metrics import episode_metrics
+    from ..sim.simulate import simulate
 
     row = {"world": int(index), "variant": settings.variant, "solver": settings.solver}
     started = time.perf_counter()

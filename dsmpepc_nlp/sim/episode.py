@@ -11,12 +11,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import PlannerConfig, RobotState
-from .costs import TERM_NAMES
-from .errors import InputError
-from .files import atomic_write_bytes
-from .planner import STATUSES
-from .world import DynamicObstacle, OccupancyGrid, World
+from ..core.config import PlannerConfig, RobotState
+from ..core.costs import TERM_NAMES
+from ..core.errors import InputError
+from ..core.files import atomic_write_bytes
+from ..solve.planner import STATUSES
+from ..core.world import DynamicObstacle, OccupancyGrid, World
 
 EPISODE_FORMAT = 1
 """Version of the episode file layout."""

@@ -8,9 +8,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .config import PlannerConfig, RobotState, SolverConfig
-from .control_law import arc_step
-from .world import DynamicObstacle, OccupancyGrid, World
+from ..core.config import PlannerConfig, RobotState, SolverConfig
+from ..core.control_law import arc_step
+from ..core.world import DynamicObstacle, OccupancyGrid, World
 
 
 @dataclass(frozen=True)
@@ -78,7 +78,7 @@ def crosscheck(cycles, config: PlannerConfig, solver_config: SolverConfig | None
     -----
     Docking is off for both planners: near the goal it would bypass both solvers.
     """
-    from .planner import Planner
+    from ..solve.planner import Planner
 
     solver_config = SolverConfig() if solver_config is None else solver_config
     nlp = Planner(config, solver_config)
@@ -146,7 +146,7 @@ def demo_cycles(config: PlannerConfig, n_cycles: int, seed: int = 0,
     The robot executes the first control of a sampling plan (``n_samples`` samples) each cycle;
     pedestrians move at constant velocity. Deterministic for a given ``seed``.
     """
-    from .planner import Planner
+    from ..solve.planner import Planner
 
     rng = np.random.default_rng(seed)
     world, state, goal = demo_world(rng)

@@ -72,12 +72,12 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from .config import PlannerConfig, RobotState
-from .control_law import EXACT, clamp_measured, rollout, step_function, target_pose
-from .costs import TERM_NAMES, assemble, disk_inverse_ttc, heading_error, inverse_ttg
-from .errors import InputError
-from .geometry import body_to_world, footprint_points
-from .smooth import CASADI, relu, sigmoid, smax, softmax_objects, softmin_objects
+from ..core.config import PlannerConfig, RobotState
+from ..core.control_law import EXACT, clamp_measured, rollout, step_function, target_pose
+from ..core.costs import TERM_NAMES, assemble, disk_inverse_ttc, heading_error, inverse_ttg
+from ..core.errors import InputError
+from ..core.geometry import body_to_world, footprint_points
+from ..core.smooth import CASADI, relu, sigmoid, smax, softmax_objects, softmin_objects
 
 FAR = 1.0e3
 """Distance reported by padding objects and by the map model of a world without a map, m:

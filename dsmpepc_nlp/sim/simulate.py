@@ -35,14 +35,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .config import PlannerConfig, RobotConfig, RobotState, SolverConfig
-from .control_law import arc_step
-from .costs import TERM_NAMES
+from ..core.config import PlannerConfig, RobotConfig, RobotState, SolverConfig
+from ..core.control_law import arc_step
+from ..core.costs import TERM_NAMES
 from .episode import Episode, config_to_dict, robot_obstacle
-from .errors import InputError
-from .geometry import footprint_points
-from .planner import STATUSES, Planner
-from .world import DynamicObstacle, OccupancyGrid, World
+from ..core.errors import InputError
+from ..core.geometry import footprint_points
+from ..solve.planner import STATUSES, Planner
+from ..core.world import DynamicObstacle, OccupancyGrid, World
 
 OUTCOMES = ("success", "collision", "deadlock", "timeout")
 """Per-robot outcomes (METHOD.md section 7)."""

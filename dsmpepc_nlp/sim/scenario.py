@@ -40,14 +40,15 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .config import RobotConfig, RobotState
-from .errors import InputError
-from .geometry import footprint_points
+from ..core.config import RobotConfig, RobotState
+from ..core.errors import InputError
+from ..core.geometry import footprint_points
 from .simulate import Agent, FixedGoal, FollowGoal, ParkedRobot, Pedestrian, Scenario
-from .world import OccupancyGrid
+from ..core.world import OccupancyGrid
 
 SCENARIO_DIR = Path(__file__).resolve().parent.parent / "scenarios"
-"""Where the built-in scenarios live (the repository's ``scenarios/`` folder)."""
+"""Where the built-in scenarios live: package data (``dsmpepc_nlp/scenarios/``), so an installed
+wheel has them; the repository's top-level ``scenarios`` is a link to the same folder."""
 
 DEFAULT_GOAL_TOLERANCE = 0.25
 """Distance to a fixed goal that counts as reached, m (our choice)."""

@@ -36,8 +36,8 @@ import time
 import casadi as ca
 import numpy as np
 
-from .config import PlannerConfig, RobotState, SolverConfig
-from .errors import InputError
+from ..core.config import PlannerConfig, RobotState, SolverConfig
+from ..core.errors import InputError
 from .newton import minimize
 from .nlp_graph import (
     PARAMETER_NAMES,
@@ -344,7 +344,7 @@ class NlpSolver:
         and the record keeps the best of them and of ``z0`` (``z0_cost``), so a solve never
         loses the start it was run from.
         """
-        from .control_law import rollout
+        from ..core.control_law import rollout
         from .planner import StartRecord
 
         started = time.perf_counter()

@@ -28,8 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import PlannerConfig, RobotState, SolverConfig
-from .errors import InputError
+from ..core.config import PlannerConfig, RobotState, SolverConfig
+from ..core.errors import InputError
 from .results import ResultTable
 
 FRAMES_PER_STEP = 10
@@ -133,7 +133,7 @@ def scene_files(data_dir, scene: str) -> list:
 
 def _tracks(recording: Recording, t0: float, t1: float, offset: float) -> list:
     """Pedestrians overlapping [t0, t1] as Pedestrian objects, times relative to t0 + offset."""
-    from .simulate import Pedestrian
+    from ..sim.simulate import Pedestrian
 
     times = recording.time(recording.frame)
     out = []
@@ -189,8 +189,8 @@ def crossing_scenario(recording: Recording, rng: np.random.Generator, *,
     -------
     Scenario, and a dict describing the draw (window start, start, goal, pedestrians).
     """
-    from .config import RobotConfig
-    from .simulate import Agent, FixedGoal, Scenario
+    from ..core.config import RobotConfig
+    from ..sim.simulate import Agent, FixedGoal, Scenario
 
     robot = robot or RobotConfig()
     first, last = recording.span
@@ -258,7 +258,7 @@ class CrowdSettings:
 
 def episode_scenario(settings: CrowdSettings, episode: int, seed: int):
     """Scenario number ``episode`` of the seeded set (the same for every variant)."""
-    from .config import RobotConfig
+    from ..core.config import RobotConfig
 
     files = scene_files(settings.data, settings.scene)
     rng = np.random.default_rng([seed, episode])
@@ -270,7 +270,7 @@ def episode_scenario(settings: CrowdSettings, episode: int, seed: int):
 
 def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int) -> dict:
     """One crossing with one planner variant (``orca`` included); the result row."""
-    from .metrics import episode_metrics
+    from ..sim.metrics import episode_metrics
 
     row = {"episode": int(episode), "seed": int(seed), "variant": variant}
     started = time.perf_counter()
@@ -284,7 +284,7 @@ def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int) 
             episode_log = simulate_orca(scenario, PlannerConfig(), rng,
                                         record_trajectories=False)
         else:
-            from .simulate import simulate
+            from ..sim.simulate import simulate
 
             solver = SolverConfig.named(settings.solver)
             if settings.n_samples:

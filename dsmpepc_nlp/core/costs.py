@@ -66,26 +66,46 @@ def disk_inverse_ttc(px, py, wx, wy, radius, smoothing=EXACT, ops=NUMPY):
     return gate * num / smax(c, tau * radius, tau * radius, ops)
 
 
+GOAL_TOLERANCE = 1e-6
+"""Distance to the goal (m) within which a pose counts as on the goal: there the time to goal
+is 0 (``1/TTG = inf``, so ``C_TTG = 0`` and the terminal term is 0, the paper's limit for
+``TTG -> 0``) and the heading error is 0 (the descent direction is undefined at the goal).
+Our definition; the paper gives only the limits."""
+
+
 def inverse_ttg(poses_terminal, v_terminal, goal, ops=NUMPY, smoothing=EXACT):
     """Inverse expected time to goal at the horizon's end, 1/s (METHOD.md section 4).
 
     Distance to the goal over the component of the terminal velocity along the goal
     direction: ``1/TTG = max(v u.(g - p), 0) / |g - p|^2``; 0 when that component is <= 0.
-    Smooth: the clip acts on the ratio, so its temperature is in 1/s like the result; a clip
-    of the numerator alone (m^2/s) grew by ``t log 2 / |g - p|^2`` near the goal (x 100 at
-    0.1 m), and there the bell of width s_ttg saw 1/TTG = 3e-3 1/s where the exact one is 0.
+    Exact: ``inf`` within :data:`GOAL_TOLERANCE` of the goal (TTG = 0 there, as the paper's
+    limit TTG -> 0 says; before, the 0/0 gave 1/TTG = 0 and the terminal term jumped to -1 on
+    the goal). The ``1e-12`` m^2 in the denominator (both forms) keeps the graph finite on the
+    goal. Smooth: the clip acts on the ratio, so its temperature is in 1/s like the result.
     """
     dx, dy = goal[0] - poses_terminal[0], goal[1] - poses_terminal[1]
     along = v_terminal * (ops.cos(poses_terminal[2]) * dx + ops.sin(poses_terminal[2]) * dy)
-    return relu(along / (dx * dx + dy * dy + 1e-12), smoothing.inverse_time, ops)
+    squared = dx * dx + dy * dy
+    inverse = relu(along / (squared + 1e-12), smoothing.inverse_time, ops)
+    if ops is NUMPY and smoothing.inverse_time == 0:
+        return np.where(squared <= GOAL_TOLERANCE ** 2, np.inf, inverse)
+    return inverse
 
 
 def heading_error(phi, descent_x, descent_y, ops=NUMPY, smoothing=EXACT):
-    """Angle between heading ``phi`` and the NF descent direction, rad, in [0, pi]."""
+    """Angle between heading ``phi`` and the NF descent direction, rad, in [0, pi].
+
+    Exact: 0 where the descent direction has no length (on the goal, where it is undefined;
+    before, ``atan2(0, -0.0)`` made it pi there). The smooth form is left as it is: its
+    ``sabs`` temperature already keeps it finite and the verdict is the exact one.
+    """
     cos_phi, sin_phi = ops.cos(phi), ops.sin(phi)
     dot = cos_phi * descent_x + sin_phi * descent_y
     cross = cos_phi * descent_y - sin_phi * descent_x
-    return ops.atan2(sabs(cross, smoothing.angle, ops), dot)
+    angle = ops.atan2(sabs(cross, smoothing.angle, ops), dot)
+    if ops is NUMPY:
+        return np.where((descent_x == 0) & (descent_y == 0), 0.0, angle)
+    return angle
 
 
 # --- assembly: one formula for the exact and the smooth cost ----------------------------------
@@ -301,6 +321,8 @@ def exact_geometry(trajectory: Trajectory, world, goal, config: PlannerConfig) -
     nf = nav.value(poses[..., :2])[..., None]
     end = poses[:, -1]
     descent = -nav.gradient(end[:, :2])
+    on_goal = np.hypot(end[:, 0] - goal[0], end[:, 1] - goal[1]) <= GOAL_TOLERANCE
+    descent[on_goal] = 0.0
     err = heading_error(end[:, 2], descent[:, 0], descent[:, 1])
     inv_ttg = inverse_ttg((end[:, 0], end[:, 1], end[:, 2]), trajectory.v[:, -1], goal)
     inv_term = (_terminal_inverse_ttc(end, world, config, times[-1])
