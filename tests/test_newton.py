@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from dsmpepc_nlp.core import config as config_module
+from dsmpepc_nlp.solve.cycle import Cycle
 from dsmpepc_nlp.solve.newton import box_qp, minimize
 
 
@@ -66,7 +67,8 @@ def test_newton_nlp_solver_records_are_finite_and_in_the_box():
                        GraphSizes(max_objects=3, near_objects=2), n_screen=4)
     world = World(None, [DynamicObstacle.pedestrian([2.5, 0.6], [-0.4, 0.0])])
     state, goal = RobotState(0.0, 0.0, 0.0), np.array([5.0, 0.0])
-    records = solver.solve(state, world, goal, structured_starts(state, goal, cfg))
+    records = solver.solve(Cycle.prepare(state, world, goal, cfg),
+                           structured_starts(state, goal, cfg))
     solved = [r for r in records if r.status != "screened"]
     assert len(solved) == solver.n_solved
     for record in solved:

@@ -8,6 +8,7 @@ from dsmpepc_nlp.solve import nlp_graph
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SmoothingConfig, SolverConfig
 from dsmpepc_nlp.core.control_law import rollout
 from dsmpepc_nlp.core.costs import TERM_NAMES, assemble, evaluate, exact_geometry
+from dsmpepc_nlp.solve.cycle import Cycle
 from dsmpepc_nlp.solve.nlp import NlpSolver, cost_function
 from dsmpepc_nlp.solve.sampling import SamplingPlanner, structured_starts
 from dsmpepc_nlp.core.smooth import CASADI
@@ -155,7 +156,7 @@ def test_solve_returns_finite_records_within_bounds():
     solver = NlpSolver(CONFIG, SolverConfig(n_spread=2, max_iter=15), SMALL, n_screen=4)
     state, world, goal = RobotState(0.0, 0.0, 0.0), _open_world(), np.array([5.0, 0.0])
     starts = structured_starts(state, goal, CONFIG)
-    records = solver.solve(state, world, goal, starts)
+    records = solver.solve(Cycle.prepare(state, world, goal, CONFIG), starts)
     assert [r.name for r in records] == (list(starts) + ["spread-0", "spread-1"]
                                          + [f"screen-{i}" for i in range(4)])
     assert sum(r.status != "screened" for r in records) == solver.n_solved
@@ -178,7 +179,8 @@ def test_solve_returns_finite_records_within_bounds():
 def test_solve_survives_unusual_worlds(world):
     solver = NlpSolver(CONFIG, SolverConfig(n_spread=0, max_iter=8), SMALL, n_screen=4)
     state, goal = RobotState(0.0, 0.0, 0.0), np.array([4.0, 0.0])
-    records = solver.solve(state, world, goal, structured_starts(state, goal, CONFIG))
+    records = solver.solve(Cycle.prepare(state, world, goal, CONFIG),
+                           structured_starts(state, goal, CONFIG))
     assert records and all(np.all(np.isfinite(r.z)) for r in records)
 
 
@@ -188,7 +190,7 @@ def test_open_space_nlp_matches_or_beats_4096_samples():
     state, world, goal = RobotState(0.0, 0.0, 0.0), World(None, ()), np.array([6.0, 0.5])
     planner = Planner(CONFIG, SolverConfig(n_spread=2, max_iter=20))
     plan = planner.plan(state, world, goal, dock=False)
-    sampled = SamplingPlanner(CONFIG).search(state, world, goal,
+    sampled = SamplingPlanner(CONFIG).search(Cycle.prepare(state, world, goal, CONFIG),
                                              structured_starts(state, goal, CONFIG))
     assert plan.fun <= sampled.costs.total[sampled.best()] + 0.01
 

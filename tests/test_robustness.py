@@ -8,6 +8,7 @@ import pytest
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
 from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.solve.planner import Planner
+from dsmpepc_nlp.solve.cycle import Cycle
 from dsmpepc_nlp.solve.sampling import evaluate_batch
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 
@@ -50,8 +51,9 @@ def test_hundreds_of_pedestrians_are_costed_in_bounded_chunks():
     world = World(obstacles=crowd)
     config = PlannerConfig()
     z = np.tile([3.0, 0.0, 0.0, 1.0], (40, 1))
-    chunked = evaluate_batch(z, RobotState(0.0, 0.0, 0.0), world, (8.0, 0.0), config)
-    single = evaluate_batch(z[:1], RobotState(0.0, 0.0, 0.0), world, (8.0, 0.0), config)
+    cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0), world, (8.0, 0.0), config)
+    chunked = evaluate_batch(z, cycle)
+    single = evaluate_batch(z[:1], cycle)
     np.testing.assert_allclose(chunked.costs.total, single.costs.total[0])
     plan = Planner(config, SolverConfig.sampling(n_samples=64)).plan(
         RobotState(0.0, 0.0, 0.0), world, (8.0, 0.0))

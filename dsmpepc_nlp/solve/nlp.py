@@ -280,15 +280,13 @@ class NlpSolver:
                 order.append(int(i))
         return order
 
-    def solve(self, state: RobotState, world, goal, starts: dict) -> list:
+    def solve(self, cycle, starts: dict) -> list:
         """Screen every start exactly, run the NLP from the best few; one record per start.
 
         Parameters
         ----------
-        state : RobotState
-        world : World
-        goal : array_like, (2,)
-            Goal position, m.
+        cycle : Cycle
+            The state, world, goal and configuration of this plan, prepared once.
         starts : dict of str to ndarray (4,)
             Named starts (e.g. from :func:`~dsmpepc_nlp.sampling.structured_starts`); the
             ``n_spread`` box starts are added as ``spread-0``, ``spread-1``, ...
@@ -311,16 +309,15 @@ class NlpSolver:
         named += [(f"spread-{i}", z) for i, z in enumerate(self.spread)]
         named += [(f"screen-{i}", z) for i, z in enumerate(self.screen)]
         self.last_stats = []
-        screened = evaluate_batch(np.array([z for _, z in named]), state, world, goal,
-                                  self.config)
+        screened = evaluate_batch(np.array([z for _, z in named]), cycle)
         costs = screened.costs.total
         records = [StartRecord(name, z0, z0, "screened", False, 0, 0.0, math.nan,
                                float(costs[i])) for i, (name, z0) in enumerate(named)]
         best_cost, best_lam = math.inf, None
         for i in self._choose(named, costs):
             name, z0 = named[i]
-            record, lam_x = self._run_outer(name, z0, screened.trajectories[i].poses, state,
-                                            world, goal, float(costs[i]))
+            record, lam_x = self._run_outer(name, z0, screened.trajectories[i].poses, cycle,
+                                            float(costs[i]))
             records[i] = record
             if record.success and record.smooth_cost < best_cost:
                 best_cost, best_lam = record.smooth_cost, lam_x
@@ -329,13 +326,12 @@ class NlpSolver:
         solved = [i for i, r in enumerate(records) if r.status != "screened"
                   and np.all(np.isfinite(r.z))]
         if solved:
-            exact = evaluate_batch(np.array([records[i].z for i in solved]), state, world, goal,
-                                   self.config).costs.total
+            exact = evaluate_batch(np.array([records[i].z for i in solved]), cycle).costs.total
             for i, cost in zip(solved, exact):
                 records[i] = dataclasses.replace(records[i], exact_cost=float(cost))
         return records
 
-    def _run_outer(self, name, z0, poses, state, world, goal, z0_cost=math.inf):
+    def _run_outer(self, name, z0, poses, cycle, z0_cost=math.inf):
         """Solve from ``z0`` with models along ``poses``; re-take them while the solution
         leaves their trust radius.
 
@@ -354,7 +350,7 @@ class NlpSolver:
         for outer in range(MAX_OUTER):
             packed = time.perf_counter()
             try:
-                p = self.parameters(state, world, goal, poses)
+                p = self.parameters(cycle.state, cycle.world, cycle.goal, poses)
             except (ValueError, FloatingPointError) as error:
                 return StartRecord(name, z0, z0, f"parameters: {error}", False, nit,
                                    time.perf_counter() - started), None
@@ -370,11 +366,10 @@ class NlpSolver:
             z, lam_x = result["z"], result["lam_x"]
             record = StartRecord(name, z0, z, result["status"], result["usable"], nit,
                                  time.perf_counter() - started, result["cost"])
-            exact = float(evaluate_batch(z[None], state, world, goal,
-                                         self.config).costs.total[0])
+            exact = float(evaluate_batch(z[None], cycle).costs.total[0])
             if math.isfinite(exact) and not exact > best[0]:
                 best = (exact, z, result["cost"], lam_x)
-            moved = rollout(z, state, self.config).poses
+            moved = rollout(z, cycle.state, self.config).poses
             if np.max(np.linalg.norm(moved[:, :2] - poses[:, :2], axis=1)) <= RELINEARISE_RADIUS:
                 break
             z_start, poses = z, moved

@@ -13,6 +13,7 @@ from ..core.config import PlannerConfig, RobotState, SolverConfig
 from ..core.control_law import Trajectory, rollout, z_from_target
 from ..core.costs import TERM_NAMES, CostBreakdown
 from ..core.errors import InputError
+from .cycle import Cycle
 from .sampling import Evaluation, SamplingPlanner, clip_to_bounds, evaluate_batch, structured_starts
 
 STATUSES = ("nlp", "sampling", "sampling-fallback", "docked", "stopped")
@@ -148,21 +149,21 @@ class Planner:
         if goal.shape != (2,) or not np.all(np.isfinite(goal)):
             raise InputError(f"goal = {goal!r}: must be a finite (x, y) pair")
         starts = structured_starts(state, goal, self.config, self._previous_target)
+        cycle = Cycle.prepare(state, world, goal, self.config)
         plan, evaluated, records, trouble = None, None, (), ""
         if dock:
-            plan = self._dock(state, world, goal)
+            plan = self._dock(cycle)
         if plan is None and self.nlp is not None:
             try:
-                records = self._verify(self.nlp.solve(state, world, goal, starts), state, world,
-                                       goal)
+                records = self._verify(self.nlp.solve(cycle, starts), cycle)
                 if sample:
-                    evaluated = self.sampler.search(state, world, goal, starts)
-                plan = self._choose_nlp(records, state, world, goal)
+                    evaluated = self.sampler.search(cycle, starts)
+                plan = self._choose_nlp(records, cycle)
             except Exception as error:  # noqa: BLE001 - a solver crash must not stop planning
                 trouble = f"the NLP raised {type(error).__name__}: {error}; "
         if plan is None:
             try:
-                evaluated = evaluated or self.sampler.search(state, world, goal, starts)
+                evaluated = evaluated or self.sampler.search(cycle, starts)
                 plan = self._from_evaluation(evaluated, state, fallback=self.nlp is not None,
                                              records=records)
             except Exception as error:  # noqa: BLE001 - the last resort is to stop, not crash
@@ -176,7 +177,8 @@ class Planner:
 
     # -- the pieces of plan() ---------------------------------------------------------------
 
-    def _dock(self, state, world, goal) -> Plan | None:
+    def _dock(self, cycle: Cycle) -> Plan | None:
+        state, goal = cycle.state, cycle.goal
         docking = self.config.docking
         distance = math.hypot(goal[0] - state.x, goal[1] - state.y)
         if distance > docking.radius or distance == 0.0:
@@ -184,12 +186,12 @@ class Planner:
         heading = math.atan2(goal[1] - state.y, goal[0] - state.x)
         z = z_from_target((goal[0], goal[1], heading), self.config.robot.v_limit, state.pose)
         z = clip_to_bounds(np.array(z, dtype=float), self.config)
-        ev = evaluate_batch(z, state, world, goal, self.config)
+        ev = evaluate_batch(z, cycle)
         if not ev.costs.survivability[0, -1] > docking.min_survival:
             return None
         return self._plan_from(ev, 0, "docked", True, "docked at the goal", 0, ())
 
-    def _verify(self, original, state, world, goal) -> tuple:
+    def _verify(self, original, cycle: Cycle) -> tuple:
         """Exact cost of every start's result: the verdict on the NLP.
 
         Records that arrive with a finite ``exact_cost`` (the NLP solver costs its screened
@@ -199,17 +201,17 @@ class Planner:
         finite = [r for r in records if np.all(np.isfinite(r.z))]
         costs = {}
         if finite:
-            ev = evaluate_batch(np.array([r.z for r in finite]), state, world, goal, self.config)
+            ev = evaluate_batch(np.array([r.z for r in finite]), cycle)
             costs = {id(r): float(c) for r, c in zip(finite, ev.costs.total)}
         return tuple(r if math.isfinite(r.exact_cost)
                      else _replace(r, exact_cost=costs.get(id(r), math.nan)) for r in original)
 
-    def _choose_nlp(self, records, state, world, goal) -> Plan | None:
+    def _choose_nlp(self, records, cycle: Cycle) -> Plan | None:
         usable = [r for r in records if math.isfinite(r.exact_cost)]
         if not any(r.success for r in usable):
             return None
         best = min(usable, key=lambda r: r.exact_cost)
-        ev = evaluate_batch(best.z, state, world, goal, self.config)
+        ev = evaluate_batch(best.z, cycle)
         nit = sum(r.nit for r in records)
         message = f"NLP: best of {len(records)} starts is '{best.name}' ({best.status})"
         return self._plan_from(ev, 0, "nlp", True, message, nit, records)

@@ -11,6 +11,7 @@ from scipy.stats import qmc
 from ..core.config import PlannerConfig, RobotState, SolverConfig
 from ..core.control_law import Trajectory, rollout, wrap, z_from_target
 from ..core.costs import CostBreakdown, evaluate
+from .cycle import Cycle
 
 SOFT_TURN = 0.6
 """|delta| of the soft-turn starts, rad (our choice: about a third of the box)."""
@@ -85,8 +86,13 @@ PAIR_BUDGET = 2_000_000
 the exact cost's temporaries near 100 MB however crowded the world."""
 
 
-def evaluate_batch(z, state: RobotState, world, goal, config: PlannerConfig) -> Evaluation:
-    """Roll out and cost every row of ``z`` (n, 4) exactly, in chunks bounded by PAIR_BUDGET."""
+def evaluate_batch(z, cycle: Cycle) -> Evaluation:
+    """Roll out and cost every row of ``z`` (n, 4) exactly, in chunks bounded by PAIR_BUDGET.
+
+    ``cycle`` (:class:`~dsmpepc_nlp.solve.cycle.Cycle`) carries the state, world, goal and
+    configuration, prepared once per plan.
+    """
+    state, world, goal, config = cycle.state, cycle.world, cycle.goal, cycle.config
     z = np.atleast_2d(np.asarray(z, dtype=float))
     trajectories = rollout(z, state, config)
     circles = max(1, len(world.stacked_obstacles()[1]))
@@ -119,7 +125,7 @@ class SamplingPlanner:
         self.config = config
         self.samples = box_samples(config, solver.n_samples, solver.seed)
 
-    def search(self, state: RobotState, world, goal, starts: dict | None = None) -> Evaluation:
+    def search(self, cycle: Cycle, starts: dict | None = None) -> Evaluation:
         """Evaluate the sample set and ``starts`` (a dict of named z); see :class:`Evaluation`."""
         extra = np.array(list(starts.values())) if starts else np.zeros((0, 4))
-        return evaluate_batch(np.vstack([extra, self.samples]), state, world, goal, self.config)
+        return evaluate_batch(np.vstack([extra, self.samples]), cycle)

@@ -19,6 +19,7 @@ from matplotlib.patches import Circle
 
 from ..core.errors import InputError
 from ..core.geometry import footprint_points
+from ..solve.cycle import Cycle
 from ..solve.sampling import SamplingPlanner, structured_starts
 
 ROBOT_COLOURS = ("tab:blue", "tab:purple", "tab:cyan", "tab:olive", "tab:brown", "tab:pink",
@@ -153,8 +154,9 @@ def cost_panels(state, world, goal, config, *, n_samples: int = 4096, n_best: in
     solver = SolverConfig.sampling(n_samples=n_samples, seed=seed)
     goal = np.asarray(goal, dtype=float)
     starts = structured_starts(state, goal, config)
-    ev_mpepc = SamplingPlanner(mpepc, solver).search(state, world, goal, starts)
-    ev_ds = SamplingPlanner(ds, solver).search(state, world, goal, starts)
+    ev_mpepc = SamplingPlanner(mpepc, solver).search(Cycle.prepare(state, world, goal, mpepc),
+                                                     starts)
+    ev_ds = SamplingPlanner(ds, solver).search(Cycle.prepare(state, world, goal, ds), starts)
     poses = ev_mpepc.trajectories.poses
     finite = lambda a, fill: np.where(np.isfinite(a), a, fill)  # noqa: E731
     panels = [
