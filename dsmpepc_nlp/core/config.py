@@ -158,6 +158,13 @@ class BoundsConfig:
             _fail("BoundsConfig", "r_max", self.r_max, f"greater than r_min = {self.r_min}")
 
 
+TERM_NAMES = ("progress", "action", "collision", "heading", "terminal")
+"""The cost terms, in the order of METHOD.md section 5."""
+TERM_WEIGHTS = {"progress": "w_progress", "action": "w_action", "collision": "c_collision",
+                "heading": "c_heading", "terminal": "w_terminal"}
+"""Each term's weight field in :class:`CostConfig`."""
+
+
 @dataclass(frozen=True)
 class CostConfig:
     """Weights and widths of the MPEPC / DS-MPEPC cost (METHOD.md section 5)."""
@@ -174,6 +181,14 @@ class CostConfig:
     """Action weight on omega^2, s/rad^2 per second of horizon (IROS 2012)."""
     c_collision: float = 0.1
     """Cost of a collision per step, weighted by 1 - survivability (IROS 2012)."""
+    w_progress: float = 1.0
+    """Weight of the progress term (METHOD.md: 1)."""
+    w_action: float = 1.0
+    """Weight of the action term on top of ``c_v`` and ``c_w`` (METHOD.md: 1)."""
+    w_terminal: float = 1.0
+    """Weight of the terminal term (the paper: 1); counted only with ``terminal_cost``."""
+    disabled: tuple = ()
+    """Names of terms switched off (their breakdown entry is 0): any of ``TERM_NAMES``."""
     a: float = 0.7
     """Largest reduction of the collision probability by the anticipatory factor (paper)."""
     s_ttc: float = 0.5
@@ -196,7 +211,23 @@ class CostConfig:
             "s_ttc": positive,
             "s_ttg": positive,
             "ttc_range": positive,
+            "w_progress": dict(low=0.0),
+            "w_action": dict(low=0.0),
+            "w_terminal": dict(low=0.0),
         })
+        try:
+            disabled = tuple(self.disabled) if not isinstance(self.disabled, str) else None
+        except TypeError:
+            disabled = None
+        if disabled is None or any(name not in TERM_NAMES for name in disabled):
+            _fail("CostConfig", "disabled", self.disabled,
+                  f"a sequence of term names from {', '.join(TERM_NAMES)}")
+        object.__setattr__(self, "disabled", disabled)
+
+    def weight(self, name: str) -> float:
+        """The weight of term ``name``: ``w_progress``, ``w_action``, ``c_collision``,
+        ``c_heading`` or ``w_terminal``."""
+        return getattr(self, TERM_WEIGHTS[name])
 
 
 @dataclass(frozen=True)
@@ -304,6 +335,16 @@ class PlannerConfig:
         if switches is None:
             raise InputError(f"variant = {name!r}: must be one of {', '.join(VARIANTS)}")
         return cls(anticipatory_pc=switches[0], terminal_cost=switches[1], **changes)
+
+    def cost_terms(self) -> tuple:
+        """The cost terms as data: ``(name, weight, enabled)`` for each of ``TERM_NAMES``.
+
+        Like Nav2 MPPI's critics: one name, one weight, one switch each; the terminal term is
+        on only with the paper's ``terminal_cost`` switch and when not in ``cost.disabled``.
+        """
+        cost = self.cost
+        return tuple((name, cost.weight(name), name not in cost.disabled
+                      and (name != "terminal" or self.terminal_cost)) for name in TERM_NAMES)
 
     @property
     def variant_name(self) -> str:

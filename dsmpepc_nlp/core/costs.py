@@ -18,14 +18,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config import PlannerConfig
+from .config import TERM_NAMES, PlannerConfig  # noqa: F401 (TERM_NAMES re-exported)
 from .control_law import EXACT, Trajectory
 from .errors import InputError
 from .geometry import footprint_points
 from .smooth import NUMPY, relu, sabs, sigmoid, smax
 
-TERM_NAMES = ("progress", "action", "collision", "heading", "terminal")
-"""The per-term breakdown, in the order of METHOD.md section 5."""
 
 _SIGNIFICANT_BELL = 6.0
 """Beyond this many sigmas exp(-d^2/sigma^2) < 3e-16: TTC is not needed there."""
@@ -149,21 +147,20 @@ def assemble(distance, inv_ttc, sigma, nf, v, omega, heading_err, inv_ttg, inv_t
     survival = ops.cumprod_steps(ops.prod_objects(1.0 - pc))
     after_start = ops.steps(survival, 1, None)
     final = ops.steps(survival, -1, None)
-    progress = ops.sum_steps(
-        after_start * (ops.steps(nf, 1, None) - ops.steps(nf, None, -1)))
-    action = ops.sum_steps((c.c_v * v * v + c.c_w * omega * omega) * config.horizon.dt)
-    collision = ops.sum_steps((1.0 - after_start) * c.c_collision)
-    # Deviation from METHOD.md: the heading heuristic is weighted by the horizon survivability
-    # like progress is; unweighted, a robot in collision could gain by turning, breaking Lemma 3.
-    heading = c.c_heading * heading_err * final
-    terms = {"progress": progress, "action": action, "collision": collision,
-             "heading": heading}
-    if config.terminal_cost:
-        c_ttg = ops.exp(-(inv_ttg * inv_ttg) / (c.s_ttg * c.s_ttg))
-        c_ttc = ops.exp(-(inv_ttc_terminal * inv_ttc_terminal) / (c.s_ttc * c.s_ttc))
-        terms["terminal"] = -final * c_ttg * c_ttc
-    else:
-        terms["terminal"] = 0.0 * final
+    # Each term unweighted; the weights and switches are data (PlannerConfig.cost_terms).
+    raw = {
+        "progress": ops.sum_steps(after_start * (ops.steps(nf, 1, None) - ops.steps(nf, None, -1))),
+        "action": ops.sum_steps((c.c_v * v * v + c.c_w * omega * omega) * config.horizon.dt),
+        "collision": ops.sum_steps(1.0 - after_start),
+        # Deviation from METHOD.md: the heading heuristic is weighted by the horizon
+        # survivability like progress is; unweighted, a robot in collision could gain by
+        # turning, breaking Lemma 3.
+        "heading": heading_err * final,
+        "terminal": -final * ops.exp(-(inv_ttg * inv_ttg) / (c.s_ttg * c.s_ttg))
+        * ops.exp(-(inv_ttc_terminal * inv_ttc_terminal) / (c.s_ttc * c.s_ttc)),
+    }
+    terms = {name: (weight * raw[name] if enabled else 0.0 * final)
+             for name, weight, enabled in config.cost_terms()}
     total = terms["progress"] + terms["action"] + terms["collision"] + terms["heading"] \
         + terms["terminal"]
     return total, terms, survival
