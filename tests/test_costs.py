@@ -1,6 +1,5 @@
 """The exact cost: time to collision by hand, the paper's three lemmas, the breakdown."""
 
-import dataclasses
 import math
 
 import numpy as np
@@ -175,9 +174,15 @@ def test_terminal_cost_rewards_stopping_facing_free_space():
     stop = rollout(np.array([2.0, 0.0, 0.0, 0.0]), RobotState(0.0, 0.0, 0.0), DS)
     costs = evaluate(stop, World(), (5.0, 0.0), DS)
     assert costs.terms["terminal"] == pytest.approx(-1.0)
-    faces_wall = dataclasses.replace(DS)
     occupied = np.zeros((40, 40), bool)
-    occupied[:, 14:] = True       # a wall 1.1 m ahead, inside the terminal TTC's reach
+    occupied[:, 26:] = True       # cells from x = 1.1 m: a wall 0.8 m ahead of the 0.3 m robot
     walled = evaluate(stop, World(OccupancyGrid.from_array(occupied, 0.1, (-1.5, -2.0))),
-                      (5.0, 0.0), faces_wall)
-    assert walled.terms["terminal"] > -0.1
+                      (5.0, 0.0), DS)
+    # Clear of the wall (survivability 1), so only C_TTC can lift the reward: at v_limit the
+    # terminal TTC is 0.8 s, and C_TTC = exp(-(1/0.8)^2 / s_ttc^2).
+    assert walled.min_distance == pytest.approx(0.8)
+    assert walled.survivability[-1] == pytest.approx(1.0)
+    assert walled.ttc_terminal == pytest.approx(0.8 / DS.robot.v_limit)
+    expected = -np.exp(-(DS.robot.v_limit / 0.8) ** 2 / DS.cost.s_ttc ** 2)
+    assert walled.terms["terminal"] == pytest.approx(expected)
+    assert walled.terms["terminal"] > -0.01
