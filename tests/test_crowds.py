@@ -72,6 +72,7 @@ def test_too_short_recording_is_an_error(tmp_path):
 
 
 def test_benchmark_two_variants_and_resume(tmp_path, capsys):
+    pytest.importorskip("pyrvo")  # the ORCA variant
     write_recording(tmp_path / "data" / "toy" / "test" / "toy.txt")
     argv = ["benchmark", "crowd", "--data", str(tmp_path / "data"), "--scene", "toy",
             "--episodes", "2", "--variants", "ds-mpepc", "orca", "--solver", "sampling",

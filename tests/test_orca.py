@@ -1,6 +1,5 @@
 """ORCA baseline: unicycle conversion, map polygons, closed loop, missing dependency."""
 
-import math
 import sys
 
 import numpy as np
@@ -67,4 +66,6 @@ def test_missing_pyrvo_says_how_to_install(monkeypatch):
     monkeypatch.setitem(sys.modules, "pyrvo", None)
     with pytest.raises(ImportError, match=r'pip install "dsmpepc_nlp\[orca\]"'):
         orca.OrcaPlanner(PlannerConfig())
-    assert math.isfinite(1.0)
+    with pytest.raises(ImportError, match=r'pip install "dsmpepc_nlp\[orca\]"'):
+        orca.check_variants(["ds-mpepc", "orca"])
+    orca.check_variants(["ds-mpepc"])  # no ORCA asked: no pyrvo needed

@@ -20,14 +20,17 @@ change limits are applied from its measured ``(v, omega)``, exactly as for the M
 
 from __future__ import annotations
 
-import contextlib
 import math
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.config import PlannerConfig, RobotState, SolverConfig
+from ..core.config import VARIANTS, PlannerConfig, RobotState, SolverConfig
+from ..core.control_law import arc_step
+from ..core.costs import TERM_NAMES
+from ..core.errors import InputError
+from ..sim.simulate import simulate
 
 INSTALL_HINT = 'the ORCA baseline needs pyrvo: pip install "dsmpepc_nlp[orca]"'
 
@@ -61,9 +64,6 @@ def require_pyrvo():
 
 def check_variants(variants) -> None:
     """Every name is ``orca`` or a planner variant; pyrvo is importable when ``orca`` is asked."""
-    from ..core.config import VARIANTS
-    from ..core.errors import InputError
-
     for v in variants:
         if v != "orca" and v not in VARIANTS:
             raise InputError(f"--variants: {v!r}: must be orca or one of {', '.join(VARIANTS)}")
@@ -228,8 +228,6 @@ class OrcaPlanner:
     def plan(self, state: RobotState, world, goal, *, dock: bool = True,
              sample: bool = False) -> OrcaPlan:
         """One cycle: ORCA's velocity, converted to ``(v, omega)``; ``dock``/``sample`` unused."""
-        from ..core.control_law import arc_step
-
         started = time.perf_counter()
         u = self.holonomic_velocity(state, world, goal)
         v, omega = self.to_unicycle(state, u)
@@ -240,30 +238,11 @@ class OrcaPlanner:
         for k in range(n):
             poses[k + 1] = arc_step(poses[k], v, omega, dt)
         nan = math.nan
-        from ..core.costs import TERM_NAMES
-
         cost = _Costs({name: nan for name in TERM_NAMES}, np.full(n + 1, nan))
         trajectory = _Trajectory(poses, np.full(n, v), np.full(n, omega),
                                  np.array([*np.asarray(goal, dtype=float), nan]))
         return OrcaPlan((v, omega), trajectory, cost, (float(u[0]), float(u[1])),
                         wall_time=time.perf_counter() - started)
-
-
-@contextlib.contextmanager
-def _planner_class(factory):
-    """Make :func:`~dsmpepc_nlp.simulate.simulate` build its planners with ``factory``.
-
-    ``simulate`` builds ``Planner(config, solver)`` itself; swapping that name for the call is
-    how the baseline runs in the very same loop (outcomes, metrics and logs unchanged).
-    """
-    from ..sim import simulate as sim_module
-
-    original = sim_module.Planner
-    sim_module.Planner = factory
-    try:
-        yield
-    finally:
-        sim_module.Planner = original
 
 
 def simulate_orca(scenario, config: PlannerConfig, rng=None, **kwargs):
@@ -272,13 +251,6 @@ def simulate_orca(scenario, config: PlannerConfig, rng=None, **kwargs):
     ``config`` supplies the robot (speed and rate limits, footprint) and ``dt``; its cost
     settings are unused. ImportError with the install hint when pyrvo is missing.
     """
-    import inspect
-
-    from ..sim.simulate import simulate
-
     require_pyrvo()
-    solver = SolverConfig.sampling(n_samples=1)
-    if "planner_factory" in inspect.signature(simulate).parameters:
-        return simulate(scenario, config, solver, rng, planner_factory=OrcaPlanner, **kwargs)
-    with _planner_class(OrcaPlanner):
-        return simulate(scenario, config, solver, rng, **kwargs)
+    return simulate(scenario, config, SolverConfig.sampling(n_samples=1), rng,
+                    planner_factory=OrcaPlanner, **kwargs)

@@ -43,7 +43,7 @@ import yaml
 from ..core.config import RobotConfig, RobotState
 from ..core.errors import InputError
 from ..core.geometry import footprint_points
-from .simulate import Agent, FixedGoal, FollowGoal, ParkedRobot, Pedestrian, Scenario
+from .types import Agent, FixedGoal, FollowGoal, ParkedRobot, Pedestrian, Scenario
 from ..core.world import OccupancyGrid
 
 SCENARIO_DIR = Path(__file__).resolve().parent.parent / "scenarios"
