@@ -84,7 +84,7 @@ def test_benchmark_two_variants_and_resume(tmp_path, capsys):
     assert set(summary["variants"]) == {"ds-mpepc", "orca"}
     assert bench_cli.main(argv + ["--resume", "--episodes", "3"]) == 0
     captured = capsys.readouterr()
-    assert "4 runs already done, 2 to run" in captured.err
+    assert "6 runs, 4 already done, 2 to run" in captured.err
     assert json.loads(captured.out)["episodes"] == 3
 
 

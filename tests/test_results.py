@@ -89,3 +89,62 @@ def test_atomic_writes_get_ordinary_permissions(tmp_path):
     mask = os.umask(0)
     os.umask(mask)
     assert stat.S_IMODE(path.stat().st_mode) == 0o666 & ~mask
+
+
+def _killed_mid_write(folder):
+    """The state a SIGKILL between the JSON and the CSV write leaves: two rows in the JSON, one
+    in the CSV, and the hidden temporary files of the interrupted writes."""
+    table = ResultTable(folder, "t", ("k",), {"a": 1})
+    table.add({"k": 0, "x": 1.0})
+    one_row_csv = (folder / "t.csv").read_text()
+    table.add({"k": 1, "x": 2.0})
+    (folder / "t.csv").write_text(one_row_csv)
+    (folder / ".t.json.abc123.tmp").write_text('{"format": 1, "ro')
+    (folder / ".t.csv.def456.tmp").write_text("k,x\n0,")
+    (folder / ".other.json.zzz.tmp").write_text("not ours")
+
+
+def test_opening_a_table_removes_the_temporaries_a_killed_write_left(tmp_path):
+    _killed_mid_write(tmp_path)
+    ResultTable(tmp_path, "t", ("k",), {"a": 1}, resume=True)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".other.json.zzz.tmp", "t.csv",
+                                                          "t.json"]
+
+
+def test_resume_makes_the_csv_agree_with_the_json(tmp_path):
+    _killed_mid_write(tmp_path)
+    table = ResultTable(tmp_path, "t", ("k",), {"a": 1}, resume=True)
+    assert len(table.rows) == 2
+    assert (tmp_path / "t.csv").read_text().splitlines() == ["k,x", "0,1.0", "1,2.0"]
+
+
+def test_a_resumed_run_with_nothing_left_rewrites_the_csv(tmp_path):
+    from dsmpepc_nlp.bench.runner import run_all
+
+    table = ResultTable(tmp_path, "t", ("k",))
+    table.add({"k": 0, "x": 1.0})
+    (tmp_path / "t.csv").unlink()
+    assert run_all(dict, [((("k", 0),),)], table, label="t", key=lambda task: (0,),
+                   stream=False) == 0
+    assert (tmp_path / "t.csv").read_text().splitlines() == ["k,x", "0,1.0"]
+
+
+def test_run_all_adds_one_row_per_task_and_skips_done_keys(tmp_path):
+    from dsmpepc_nlp.bench.runner import run_all
+
+    table = ResultTable(tmp_path, "t", ("k",))
+    table.add({"k": 1, "x": "old"})
+    tasks = [((("k", k), ("x", "new")),) for k in range(3)]
+    ran = run_all(dict, tasks, table, label="t", key=lambda task: (task[0][0][1],),
+                  workers=1, stream=False)
+    assert ran == 2
+    assert sorted((r["k"], r["x"]) for r in table.rows) == [(0, "new"), (1, "old"), (2, "new")]
+    assert json.loads((tmp_path / "t.json").read_text())["rows"] == table.rows
+
+
+def test_an_existing_table_is_an_input_error_naming_both_options(tmp_path):
+    from dsmpepc_nlp.core.errors import InputError
+
+    ResultTable(tmp_path, "t", ("k",)).add({"k": 0})
+    with pytest.raises(InputError, match="--resume.*--overwrite"):
+        ResultTable(tmp_path, "t", ("k",))

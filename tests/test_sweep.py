@@ -71,7 +71,7 @@ def test_failed_run_is_recorded_and_resume_skips_done(tmp_path, tiny):
     stream = StringIO()
     again = sweep.run_sweep(params, [tiny], [0, 1], SETTINGS, out, workers=1, resume=True,
                             progress=stream)
-    assert again["runs"] == 4 and "4 already done, 0 on" in stream.getvalue()
+    assert again["runs"] == 4 and "4 already done, 0 to run on" in stream.getvalue()
 
 
 def test_two_parameters_give_a_pair_heatmap_and_cli_json(tmp_path, tiny, capsys):

@@ -25,9 +25,6 @@ of the rectangle exactly (its half-diagonal). Speed limit 1.0 m/s by default (th
 from __future__ import annotations
 
 import math
-import multiprocessing
-import os
-import sys
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -36,8 +33,13 @@ import numpy as np
 
 from ..core.config import PlannerConfig, RobotConfig, RobotState, SolverConfig
 from ..core.errors import InputError
-from .results import ResultTable, atomic_savefig
 from ..core.world import OccupancyGrid
+from ..sim.metrics import episode_metrics
+from ..sim.simulate import simulate
+from ..sim.types import Agent, FixedGoal, Scenario
+from .params import configure
+from .results import ResultTable, atomic_savefig
+from .runner import mean, outcome_rates, run_all
 
 CELL = 0.15
 """BARN cell side and cylinder diameter, m."""
@@ -236,9 +238,7 @@ def load_world(data_dir, index: int, resolution: float = DEFAULT_RESOLUTION) -> 
 
 
 def scenario(world: BarnWorld, robot: RobotConfig | None = None, time_limit=TIME_LIMIT):
-    """The challenge run on ``world`` as a :class:`~dsmpepc_nlp.simulate.Scenario`."""
-    from ..sim.simulate import Agent, FixedGoal, Scenario
-
+    """The challenge run on ``world`` as a :class:`~dsmpepc_nlp.sim.types.Scenario`."""
     agent = Agent("jackal", RobotState(*START), FixedGoal(GOAL, GOAL_TOLERANCE),
                   robot=robot or jackal_robot())
     return Scenario(name=f"barn-{world.index}", agents=(agent,), grid=world.occupancy,
@@ -274,8 +274,6 @@ class BarnSettings:
 
     def config(self) -> PlannerConfig:
         """The variant with the Jackal body and the overrides."""
-        from .sweep import configure
-
         config = configure(dict(self.overrides), self.variant)
         return replace(config, robot=replace(jackal_robot(self.v_limit), **{
             k.split(".", 1)[1]: v for k, v in self.overrides if k.startswith("robot.")}))
@@ -289,9 +287,6 @@ def solver_config(name: str, n_samples: int | None = None) -> SolverConfig:
 
 def run_world(index: int, settings: BarnSettings) -> dict:
     """Run one world; the result row (never raises: an exception becomes ``outcome = error``)."""
-    from ..sim.metrics import episode_metrics
-    from ..sim.simulate import simulate
-
     row = {"world": int(index), "variant": settings.variant, "solver": settings.solver}
     started = time.perf_counter()
     try:
@@ -319,63 +314,31 @@ def run_world(index: int, settings: BarnSettings) -> dict:
     return row
 
 
-def _run_world_task(args):
-    return run_world(*args)
-
-
 def summarise(rows) -> dict:
     """Rates and means over result rows (``error`` rows count as failures)."""
-    n = len(rows)
-    outcomes = [r["outcome"] for r in rows]
-
-    def rate(name):
-        return outcomes.count(name) / n if n else math.nan
-
-    times = [r["time"] for r in rows if r["outcome"] == "success"]
     plan = [r["plan_time_median"] for r in rows if r.get("plan_time_median") is not None]
-    return {
-        "worlds": n, "success_rate": rate("success"), "collision_rate": rate("collision"),
-        "timeout_rate": rate("timeout"), "deadlock_rate": rate("deadlock"),
-        "error_rate": rate("error"),
-        "mean_score": float(np.mean([r["score"] for r in rows])) if n else math.nan,
-        "mean_time_success": float(np.mean(times)) if times else math.nan,
-        "plan_time_median": float(np.median(plan)) if plan else math.nan,
-    }
+    return {"worlds": len(rows), **outcome_rates(r["outcome"] for r in rows),
+            "mean_score": mean(rows, "score"),
+            "mean_time_success": mean(rows, "time", lambda r: r["outcome"] == "success"),
+            "plan_time_median": float(np.median(plan)) if plan else math.nan}
 
 
 def run_benchmark(settings: BarnSettings, worlds, out_dir, *, workers: int | None = None,
-                  resume=False, overwrite=False, progress=True) -> tuple[list, dict]:
+                  resume=False, overwrite=False, progress=None) -> tuple[list, dict]:
     """Run ``worlds`` into ``out_dir/barn.{csv,json}`` (+ ``barn.png``); rows and summary.
 
-    Worlds already in the table are skipped when ``resume`` is True.
+    Worlds already in the table are skipped when ``resume`` is True. ``progress``: the stream
+    for the status line and bar (None: stderr; False: silent).
     """
-    progress = sys.stderr if progress is True else progress or None
     table = ResultTable(out_dir, "barn", ("world", "variant", "solver"), settings.meta(),
                         resume=resume, overwrite=overwrite)
-    todo = [w for w in worlds if not table.done((w, settings.variant, settings.solver))]
-    for w in todo:  # fail early on a missing folder rather than inside every worker
-        if not world_files(settings.data, w)["grid"].exists():
+    for w in worlds:  # fail early on a missing folder rather than inside every worker
+        if not table.done((w, settings.variant, settings.solver)) \
+                and not world_files(settings.data, w)["grid"].exists():
             raise InputError(f"BARN data {settings.data!r}: no grid_files/grid_{w}.npy")
-    workers = max(1, min(workers or os.cpu_count() or 1, len(todo) or 1))
-    _say(progress, f"barn: {len(worlds) - len(todo)} of {len(worlds)} worlds already done, "
-                   f"{len(todo)} to run on {workers} worker(s)")
-    tasks = [(w, settings) for w in todo]
-    started = time.perf_counter()
-    if workers == 1:
-        results = map(_run_world_task, tasks)
-        pool = None
-    else:
-        pool = multiprocessing.get_context("spawn").Pool(workers)
-        results = pool.imap_unordered(_run_world_task, tasks)
-    try:
-        for done, row in enumerate(results, 1):
-            table.add(row)
-            _say(progress, f"[{done}/{len(todo)}] world {row['world']}: {row['outcome']} "
-                           f"t={_fmt(row.get('time'))} score={_fmt(row.get('score'))} "
-                           f"({time.perf_counter() - started:.0f} s)")
-    finally:
-        if pool is not None:
-            pool.terminate()
+    run_all(run_world, [(w, settings) for w in worlds], table, label="barn",
+            key=lambda task: (task[0], settings.variant, settings.solver), workers=workers,
+            stream=progress, describe=lambda row: f"world {row['world']}: {row['outcome']}")
     rows = [r for r in table.rows if r["variant"] == settings.variant
             and r["solver"] == settings.solver and r["world"] in set(worlds)]
     rows.sort(key=lambda r: r["world"])
@@ -417,13 +380,3 @@ def plot_outcomes(rows, path, title="BARN") -> Path:
         return atomic_savefig(fig, path, dpi=120)
     finally:
         plt.close(fig)
-
-
-def _fmt(value) -> str:
-    return "-" if value is None or (isinstance(value, float) and math.isnan(value)) \
-        else f"{value:.3g}"
-
-
-def _say(stream, text: str) -> None:
-    if stream is not None:
-        print(text, file=stream, flush=True)

@@ -19,18 +19,20 @@ scene (FORMAT.md). We rescale time: eth steps are taken as 0.8 s, which gives 1.
 from __future__ import annotations
 
 import math
-import multiprocessing
-import os
-import sys
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from ..core.config import PlannerConfig, RobotState, SolverConfig
+from ..core.config import PlannerConfig, RobotConfig, RobotState, SolverConfig
 from ..core.errors import InputError
+from ..sim.metrics import episode_metrics
+from ..sim.simulate import simulate
+from ..sim.types import Agent, FixedGoal, Pedestrian, Scenario
+from .orca import check_variants, simulate_orca
 from .results import ResultTable
+from .runner import mean, outcome_rates, run_all
 
 FRAMES_PER_STEP = 10
 """Frame ids advance by this much per annotation step."""
@@ -133,8 +135,6 @@ def scene_files(data_dir, scene: str) -> list:
 
 def _tracks(recording: Recording, t0: float, t1: float, offset: float) -> list:
     """Pedestrians overlapping [t0, t1] as Pedestrian objects, times relative to t0 + offset."""
-    from ..sim.simulate import Pedestrian
-
     times = recording.time(recording.frame)
     out = []
     for pid in np.unique(recording.ped):
@@ -189,9 +189,6 @@ def crossing_scenario(recording: Recording, rng: np.random.Generator, *,
     -------
     Scenario, and a dict describing the draw (window start, start, goal, pedestrians).
     """
-    from ..core.config import RobotConfig
-    from ..sim.simulate import Agent, FixedGoal, Scenario
-
     robot = robot or RobotConfig()
     first, last = recording.span
     if last - first < duration:
@@ -258,8 +255,6 @@ class CrowdSettings:
 
 def episode_scenario(settings: CrowdSettings, episode: int, seed: int):
     """Scenario number ``episode`` of the seeded set (the same for every variant)."""
-    from ..core.config import RobotConfig
-
     files = scene_files(settings.data, settings.scene)
     rng = np.random.default_rng([seed, episode])
     recording = load_recording(files[int(rng.integers(len(files)))])
@@ -270,8 +265,6 @@ def episode_scenario(settings: CrowdSettings, episode: int, seed: int):
 
 def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int) -> dict:
     """One crossing with one planner variant (``orca`` included); the result row."""
-    from ..sim.metrics import episode_metrics
-
     row = {"episode": int(episode), "seed": int(seed), "variant": variant}
     started = time.perf_counter()
     try:
@@ -279,13 +272,9 @@ def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int) 
         row.update(draw)
         rng = np.random.default_rng([seed, episode])
         if variant == "orca":
-            from .orca import simulate_orca
-
             episode_log = simulate_orca(scenario, PlannerConfig(), rng,
                                         record_trajectories=False)
         else:
-            from ..sim.simulate import simulate
-
             solver = SolverConfig.named(settings.solver)
             if settings.n_samples:
                 solver = replace(solver, n_samples=settings.n_samples)
@@ -304,72 +293,37 @@ def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int) 
     return row
 
 
-def _task(args):
-    return run_episode(*args)
-
-
 def summarise(rows) -> dict:
     """CrowdNav-style figures of a list of rows (one variant)."""
-    n = len(rows)
-    outcomes = [r["outcome"] for r in rows]
-
-    def rate(name):
-        return outcomes.count(name) / n if n else math.nan
-
-    def mean(key, pick=lambda r: True):
-        values = [r[key] for r in rows if pick(r) and r.get(key) is not None]
-        return float(np.mean(values)) if values else math.nan
-
     # A gap near OFFSTAGE means no pedestrian was on stage while the robot ran: not a distance.
     met = [r for r in rows if r.get("min_distance") is not None
            and r["min_distance"] < OFFSTAGE[0] / 10]
     gaps = [r["min_distance"] for r in met]
-    return {"episodes": n, "success_rate": rate("success"),
-            "collision_rate": rate("collision"), "timeout_rate": rate("timeout"),
-            "deadlock_rate": rate("deadlock"), "error_rate": rate("error"),
-            "time_to_goal": mean("time_to_goal", lambda r: r["outcome"] == "success"),
-            "discomfort": mean("discomfort"),
-            "min_distance_mean": float(np.mean(gaps)) if gaps else math.nan,
+    return {"episodes": len(rows), **outcome_rates(r["outcome"] for r in rows),
+            "time_to_goal": mean(rows, "time_to_goal", lambda r: r["outcome"] == "success"),
+            "discomfort": mean(rows, "discomfort"),
+            "min_distance_mean": mean(met, "min_distance"),
             "episodes_with_pedestrians": len(met),
             "min_distance": float(np.min(gaps)) if gaps else math.nan,
-            "plan_time_median": mean("plan_time_median")}
+            "plan_time_median": mean(rows, "plan_time_median")}
 
 
 def run_benchmark(settings: CrowdSettings, variants, episodes: int, seed: int, out_dir, *,
-                  workers=None, resume=False, overwrite=False, progress=True) -> dict:
+                  workers=None, resume=False, overwrite=False, progress=None) -> dict:
     """Every (variant, episode) into ``out_dir/crowd.{json,csv}``; the summary.
 
     The summary has the first variant's figures at the top level (``episodes``,
     ``success_rate``, ``collision_rate``, ...) and every variant under ``variants``.
+    ``progress``: the stream for the status line and bar (None: stderr; False: silent).
     """
-    progress = sys.stderr if progress is True else progress or None
-    from .orca import check_variants
-
     check_variants(variants)
     scene_files(settings.data, settings.scene)  # fail early on a bad scene
     table = ResultTable(out_dir, "crowd", ("variant", "episode", "seed"), settings.meta(),
                         resume=resume, overwrite=overwrite)
-    tasks = [(settings, v, e, seed) for v in variants for e in range(episodes)
-             if not table.done((v, e, seed))]
-    workers = max(1, min(workers or os.cpu_count() or 1, len(tasks) or 1))
-    if progress:
-        print(f"crowd: {len(variants) * episodes - len(tasks)} runs already done, "
-              f"{len(tasks)} to run on {workers} worker(s)", file=progress, flush=True)
-    pool = None
-    if workers == 1:
-        results = map(_task, tasks)
-    else:
-        pool = multiprocessing.get_context("spawn").Pool(workers)
-        results = pool.imap_unordered(_task, tasks)
-    try:
-        for done, row in enumerate(results, 1):
-            table.add(row)
-            if progress:
-                print(f"[{done}/{len(tasks)}] {row['variant']} episode {row['episode']}: "
-                      f"{row['outcome']}", file=progress, flush=True)
-    finally:
-        if pool is not None:
-            pool.terminate()
+    run_all(run_episode, [(settings, v, e, seed) for v in variants for e in range(episodes)],
+            table, label="crowd", key=lambda task: (task[1], task[2], task[3]),
+            workers=workers, stream=progress,
+            describe=lambda row: f"{row['variant']} episode {row['episode']}: {row['outcome']}")
     per_variant = {}
     for v in variants:
         rows = [r for r in table.rows if r["variant"] == v and r["seed"] == seed

@@ -6,6 +6,10 @@ after every added row, each through a temporary file in the same folder and ``os
 interrupted run leaves either the previous complete table or the new one, never a partial file.
 Rows are identified by a key (a tuple of the values of ``key_fields``); a resumed run skips keys
 already present.
+
+A process killed while writing (SIGKILL, power loss) can leave hidden ``.<stem>.json.*.tmp`` /
+``.<stem>.csv.*.tmp`` files and a CSV one row behind the JSON. Opening a table removes those
+temporary files, and resuming rewrites the CSV from the JSON, so the pair is consistent again.
 """
 
 from __future__ import annotations
@@ -13,32 +17,18 @@ from __future__ import annotations
 import csv
 import io
 import json
-import math
 from pathlib import Path
 
 from ..core.errors import InputError
-from ..core.files import atomic_savefig, atomic_write_bytes, atomic_write_text  # noqa: F401 (re-exported)
+from ..core.files import atomic_savefig, atomic_write_bytes, atomic_write_text  # noqa: F401
+from ..core.jsonio import dumps, json_clean  # noqa: F401 (re-exported)
 
 TABLE_FORMAT = 1
 """Version of the JSON layout written by :class:`ResultTable`."""
 
 
-def json_clean(value):
-    """NaN and inf replaced by None, numpy scalars by Python ones, recursively."""
-    if hasattr(value, "item") and not isinstance(value, (list, tuple, dict, str)):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {str(k): json_clean(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [json_clean(v) for v in value]
-    return value
-
-
-def dumps(value) -> str:
-    """Strict JSON (no NaN) of ``value``, indented."""
-    return json.dumps(json_clean(value), indent=1, allow_nan=False)
+class TableExistsError(InputError, FileExistsError):
+    """The output folder already holds a table and neither resume nor overwrite was asked."""
 
 
 def _key_part(value):
@@ -66,13 +56,14 @@ class ResultTable:
         JSON-able description of the run (stored next to the rows; checked on resume).
     resume : bool
         Keep the rows already on disk and skip their keys. When False and the folder already
-        holds a table, :class:`FileExistsError` is raised unless ``overwrite`` is True.
+        holds a table, :class:`TableExistsError` (an InputError and a FileExistsError) is
+        raised unless ``overwrite`` is True.
     overwrite : bool
         Start from an empty table even when one exists.
 
     Raises
     ------
-    ValueError
+    InputError
         On resume, when the stored table is unreadable or its ``meta`` differs from ``meta``
         (other settings than the ones a resumed run would use).
     """
@@ -84,11 +75,13 @@ class ResultTable:
         self.key_fields = tuple(key_fields)
         self.meta = json_clean(dict(meta or {}))
         self.rows: list[dict] = []
+        self._remove_temporaries()
         existing = self.json_path.exists()
         if existing and resume and not overwrite:
             self._load()
+            self.write()  # the CSV from the JSON: one row behind after a kill between the two
         elif existing and not overwrite:
-            raise FileExistsError(
+            raise TableExistsError(
                 f"{self.json_path}: results already exist; pass resume (--resume) to continue "
                 "the run and skip what is done, or overwrite (--overwrite) to start over")
         self._keys = {self.key(row) for row in self.rows}
@@ -100,6 +93,14 @@ class ResultTable:
     @property
     def csv_path(self) -> Path:
         return self.folder / f"{self.stem}.csv"
+
+    def _remove_temporaries(self) -> None:
+        """Delete the temporary files an interrupted :meth:`write` of this table left."""
+        if not self.folder.is_dir():
+            return
+        for name in (self.json_path.name, self.csv_path.name):
+            for leftover in self.folder.glob(f".{name}.*.tmp"):
+                leftover.unlink(missing_ok=True)
 
     def _load(self) -> None:
         path = self.json_path

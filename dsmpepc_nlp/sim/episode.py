@@ -15,8 +15,9 @@ from ..core.config import PlannerConfig, RobotState
 from ..core.costs import TERM_NAMES
 from ..core.errors import InputError
 from ..core.files import atomic_write_bytes
-from ..solve.planner import STATUSES
+from ..core.jsonio import json_clean
 from ..core.world import DynamicObstacle, OccupancyGrid, World
+from ..solve.planner import STATUSES
 
 EPISODE_FORMAT = 1
 """Version of the episode file layout."""
@@ -218,15 +219,7 @@ def robot_obstacle(state, footprint) -> DynamicObstacle:
 
 def config_to_dict(config: PlannerConfig) -> dict:
     """A JSON-able dict of a planner configuration (inf written as the string ``"inf"``)."""
-    def clean(value):
-        if isinstance(value, float) and not math.isfinite(value):
-            return str(value)
-        if isinstance(value, (list, tuple)):
-            return [clean(v) for v in value]
-        if isinstance(value, dict):
-            return {k: clean(v) for k, v in value.items()}
-        return value
-    return clean(dataclasses.asdict(config))
+    return json_clean(dataclasses.asdict(config), nonfinite=str)
 
 
 def config_from_dict(data: dict) -> PlannerConfig:

@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from ..core.geometry import footprint_points
+from ..core.jsonio import json_clean
 from ..core.world import World
 
 DISCOMFORT_GAP = 0.2
@@ -145,12 +146,5 @@ def episode_metrics(episode) -> list:
     return [robot_metrics(episode, i) for i in range(episode.n_robots)]
 
 
-def json_safe(value):
-    """NaN and inf replaced by None, recursively (strict JSON has neither)."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [json_safe(v) for v in value]
-    return value
+json_safe = json_clean
+"""NaN and inf replaced by None, recursively: :func:`~dsmpepc_nlp.core.jsonio.json_clean`."""

@@ -43,8 +43,8 @@ import yaml
 from ..core.config import RobotConfig, RobotState
 from ..core.errors import InputError
 from ..core.geometry import footprint_points
-from .types import Agent, FixedGoal, FollowGoal, ParkedRobot, Pedestrian, Scenario
 from ..core.world import OccupancyGrid
+from .types import Agent, FixedGoal, FollowGoal, ParkedRobot, Pedestrian, Scenario
 
 SCENARIO_DIR = Path(__file__).resolve().parent.parent / "scenarios"
 """Where the built-in scenarios live: package data (``dsmpepc_nlp/scenarios/``), so an installed
