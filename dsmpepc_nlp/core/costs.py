@@ -24,7 +24,6 @@ from .errors import InputError
 from .geometry import footprint_points
 from .smooth import NUMPY, relu, sabs, sigmoid, smax
 
-
 _SIGNIFICANT_BELL = 6.0
 """Beyond this many sigmas exp(-d^2/sigma^2) < 3e-16: TTC is not needed there."""
 
