@@ -163,14 +163,49 @@ def test_navigation_with_goal_inside_obstacle_and_enclosed_cells_is_finite():
     assert np.all(np.isfinite(nf.gradient([[2.5, 1.5], [5.5, 3.5]])))
 
 
-def test_navigation_extends_the_grid_to_hold_the_goal():
+def test_navigation_window_is_the_map_plus_margin_whatever_the_goal():
+    grid = u_maze()
+    inside = NavigationFunction([8.5, 1.5], grid, margin=2.0)
+    for goal in ([15.0, 5.0], [1.0e4, 5.0], [-3.0e5, 7.0e5]):
+        nf = NavigationFunction(goal, grid, margin=2.0)
+        assert nf.working_grid.bounds == inside.working_grid.bounds == (-2.0, -2.0, 12.0, 12.0)
+
+
+def test_goal_beyond_the_window_is_reached_through_the_facing_border():
     nf = NavigationFunction([15.0, 5.0], u_maze(), margin=2.0)
-    _, ymin, xmax, ymax = nf.working_grid.bounds
-    assert xmax >= 17.0 and ymin <= 0.0 and ymax >= 10.0
-    # goal on a cell corner: the four surrounding centres are seeded at their Euclidean distance
-    assert nf.value([15.0, 5.0]) == pytest.approx(math.sqrt(0.5))
-    # 8-connected path lengths overestimate Euclidean ones by up to ~8 %
-    np.testing.assert_allclose(nf.value([[17.0, 5.0], [15.0, 2.0]]), [2.0, 3.0], atol=0.25)
+    # the border column facing the goal holds the straight-line distance from its centres
+    np.testing.assert_allclose(nf.value([[11.5, 5.5], [11.5, -1.5]]),
+                               np.hypot(3.5, [0.5, 6.5]), atol=1e-9)
+    # right of the wall the path runs straight: 8-connected lengths overestimate by < 8 %
+    euclid = math.hypot(15.0 - 7.5, 5.0 - 5.5)
+    assert euclid <= nf.value([7.5, 5.5]) <= 1.08 * euclid
+    # left of the wall it goes round the wall's bottom corners (the margin below the map is free)
+    geodesic = math.hypot(2.5, 1.5) + 1.0 + math.hypot(9.0, 5.0)
+    assert geodesic <= nf.value([2.5, 1.5]) <= 1.1 * geodesic
+    # far goal: every border cell facing it is the same distance up to the goal's offset
+    far = NavigationFunction([1.0e4, 5.0], u_maze(), margin=2.0)
+    assert far.value([11.5, 5.5]) == pytest.approx(math.hypot(1.0e4 - 11.5, 0.5), abs=1e-6)
+    assert far.gradient([8.5, 5.5])[0] == pytest.approx(-1.0, abs=0.05)
+
+
+def test_navigation_window_follows_a_robot_that_left_the_map():
+    grid = u_maze()
+    near = np.array([40.0, 5.0])
+    nf = NavigationFunction([1.0e4, 5.0], grid, margin=2.0, near=near, reach=5.0)
+    xmin, ymin, xmax, ymax = nf.working_grid.bounds
+    assert xmin <= near[0] - 5.0 and xmax >= near[0] + 5.0
+    assert ymin <= near[1] - 5.0 and ymax >= near[1] + 5.0
+    assert nf.values.size <= 14 * 14 + 3 * 13 * 13  # the map window + 3 robot boxes (13 cells)
+    assert nf.gradient(near)[0] == pytest.approx(-1.0, abs=0.05)
+    # a robot far away with its goal beside it: the window holds both, value 0 at the goal
+    robot = np.array([1.0e6, 1.0e6])
+    goal = robot + [1.5, 0.5]  # a cell centre
+    close = NavigationFunction(goal, grid, near=robot, reach=5.0)
+    assert close.value(goal) == pytest.approx(0.0, abs=1e-9)
+    assert close.value(robot) == pytest.approx(math.hypot(1.5, 0.5), rel=0.08)
+    assert close.values.size < 1000
+    # a goal inside the map window ignores ``near``
+    assert NavigationFunction([8.5, 1.5], grid, near=near, reach=5.0).values.shape == (14, 14)
 
 
 def test_navigation_without_grid_is_euclidean():

@@ -366,6 +366,15 @@ class PlannerConfig:
         b = self.bounds
         return (b.r_max, b.theta_max, b.delta_max, self.robot.v_limit)
 
+    @property
+    def reach(self) -> float:
+        """Farthest a trajectory goes from its start, m: horizon duration times v_limit.
+
+        The navigation function's window holds the robot's position plus this much when the
+        goal is outside the map (:func:`~dsmpepc_nlp.core.navigation.navigation_window`).
+        """
+        return self.horizon.duration * self.robot.v_limit
+
 
 VARIANTS = {
     "mpepc": (False, False),

@@ -313,7 +313,9 @@ def exact_geometry(trajectory: Trajectory, world, goal, config: PlannerConfig) -
         distance = np.full((n, n_poses, 0), np.inf)
         inv_ttc = np.zeros((n, n_poses, 0))
         sigma = np.zeros(0)
-    nav = world.navigation(goal, config.robot.inflation_radius)
+    # The window is chosen around the first trajectory's start, as the planner's cycle does.
+    nav = world.navigation(goal, config.robot.inflation_radius, near=poses[0, 0, :2],
+                           reach=config.reach)
     nf = nav.value(poses[..., :2])[..., None]
     end = poses[:, -1]
     descent = -nav.gradient(end[:, :2])

@@ -1,4 +1,14 @@
-"""The navigation function: shortest free-space path length to a goal, on a bounded window."""
+"""The navigation function: shortest free-space path length to a goal, on a bounded window.
+
+The values live on a window of the map's cell lattice (a table at cell centres + resolution +
+origin, read by :func:`~dsmpepc_nlp.core.grid._interpolate`, like the signed distance). The
+window never grows to the goal: it is the map plus a margin, or, when the goal lies outside that
+and the robot's reach does too, a box of bounded size around the robot (joined with the map when
+the union stays small). A goal outside the window is reached through the window's border: the
+Dijkstra is seeded from the border cells on the sides facing the goal, each valued at its
+straight-line distance to the goal, the way a local planner follows a global plan. So a goal
+10 km away costs what a goal inside the map costs.
+"""
 
 from __future__ import annotations
 
@@ -6,11 +16,130 @@ import math
 
 import numpy as np
 from scipy import ndimage
-from scipy.sparse import coo_matrix
+from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from .errors import finite_vector, positive_number
 from .grid import OccupancyGrid, _interpolate, _points, _readonly
+
+TILE_DIVISOR = 4
+"""A robot box is ``near +- reach`` snapped outward to a lattice of ``reach / TILE_DIVISOR``: it
+changes (and the values are recomputed) once per quarter of the reach travelled."""
+
+UNION_FACTOR = 3
+"""A robot box is joined with the map window when the union has at most this many robot boxes'
+worth of cells beyond the map window's; otherwise the robot box alone is the window."""
+
+
+def navigation_window(grid, goal, margin, near=None, reach=0.0):
+    """Cell-index box ``(x0, y0, x1, y1)`` (half-open, in the map's cell lattice) of the window.
+
+    Parameters
+    ----------
+    grid : OccupancyGrid
+    goal : ndarray, shape (2,)
+        Goal (m).
+    margin : float
+        Free margin (m) around the map.
+    near : array_like, shape (2,), optional
+        Where the robot is (m). Only used when the goal is outside the map window.
+    reach : float
+        How far (m) trajectories go from ``near``; the window then holds ``near +- reach``.
+
+    Returns
+    -------
+    tuple of int
+        The map occupies ``[0, nx) x [0, ny)``; a window may extend beyond it on any side.
+    """
+    res = grid.resolution
+    ny, nx = grid.shape
+    m = math.ceil(margin / res - 1e-9)
+    base = (-m, -m, nx + m, ny + m)
+    u, v = (np.asarray(goal, dtype=float) - grid.origin) / res
+    if near is None or _contains(base, u, v):
+        return base
+    near_u, near_v = (np.asarray(near, dtype=float) - grid.origin) / res
+    r = math.ceil(reach / res) + 1
+    # Snapped to a lattice of `tile` cells, so the window changes once per tile of travel.
+    tile = max(1, r // TILE_DIVISOR)
+    x0 = (math.floor(near_u) - r) // tile * tile
+    y0 = (math.floor(near_v) - r) // tile * tile
+    box = (x0, y0, x0 + 2 * r + tile, y0 + 2 * r + tile)
+    if base[0] <= box[0] and base[1] <= box[1] and box[2] <= base[2] and box[3] <= base[3]:
+        return base
+    union = (min(base[0], box[0]), min(base[1], box[1]), max(base[2], box[2]),
+             max(base[3], box[3]))
+    if _cells(union) <= _cells(base) + UNION_FACTOR * _cells(box):
+        return union
+    return box
+
+
+def _contains(box, u, v):
+    return box[0] <= u < box[2] and box[1] <= v < box[3]
+
+
+def _cells(box):
+    return (box[2] - box[0]) * (box[3] - box[1])
+
+
+def _crop(grid, window):
+    """The map's occupancy on ``window`` (free outside the map) as an OccupancyGrid."""
+    x0, y0, x1, y1 = window
+    ny, nx = grid.shape
+    occ = np.zeros((y1 - y0, x1 - x0), dtype=bool)
+    ax0, ay0, ax1, ay1 = max(x0, 0), max(y0, 0), min(x1, nx), min(y1, ny)
+    if ax0 < ax1 and ay0 < ay1:
+        occ[ay0 - y0:ay1 - y0, ax0 - x0:ax1 - x0] = grid.occupied[ay0:ay1, ax0:ax1]
+    return OccupancyGrid(occ, grid.resolution, grid.origin + grid.resolution * np.array([x0, y0]))
+
+
+def _free(grid, window, inflation_radius):
+    """Cells of ``window`` whose signed distance exceeds ``inflation_radius``, (ny, nx) bool.
+
+    Only the map and the ring of cells within ``inflation_radius`` of it can be blocked, so the
+    signed distance is computed there alone: a large window around a far robot costs no more.
+    """
+    k = math.ceil(inflation_radius / grid.resolution) + 1
+    ny, nx = grid.shape
+    x0, y0, x1, y1 = window
+    near_map = (max(x0, -k), max(y0, -k), min(x1, nx + k), min(y1, ny + k))
+    free = np.ones((y1 - y0, x1 - x0), dtype=bool)
+    if near_map[0] < near_map[2] and near_map[1] < near_map[3]:
+        part = _crop(grid, near_map).signed_distance > inflation_radius
+        free[near_map[1] - y0:near_map[3] - y0, near_map[0] - x0:near_map[2] - x0] = part
+    return free
+
+
+_STEPS = ((0, 1), (0, -1), (1, 0), (-1, 0), (1, 1), (1, -1), (-1, 1), (-1, -1))
+
+
+def _grid_graph(free, res, seeds, seed_weights):
+    """CSR graph of the 8-connected free cells plus a source node (the last) feeding the seeds.
+
+    Edges of ``res`` and ``res * sqrt(2)``; no diagonal past a blocked cell. Built row by row
+    in CSR order directly (no COO sort), since it is the larger part of a window's cost.
+    """
+    ny, nx = free.shape
+    n = ny * nx
+    padded = np.pad(free, 1, constant_values=False)
+    index = np.pad(np.arange(n).reshape(ny, nx), 1, constant_values=-1)
+    masks, neighbours = [], []
+    for dy, dx in _STEPS:
+        ok = free & padded[1 + dy:1 + dy + ny, 1 + dx:1 + dx + nx]
+        if dy and dx:
+            ok &= padded[1 + dy:1 + dy + ny, 1:1 + nx] & padded[1:1 + ny, 1 + dx:1 + dx + nx]
+        masks.append(ok)
+        neighbours.append(index[1 + dy:1 + dy + ny, 1 + dx:1 + dx + nx])
+    mask = np.stack(masks, -1).reshape(n, 8)
+    neighbour = np.stack(neighbours, -1).reshape(n, 8)
+    length = np.array([res * math.sqrt(2.0) if dy and dx else res for dy, dx in _STEPS])
+    indptr = np.zeros(n + 2, dtype=np.int64)
+    np.cumsum(mask.sum(axis=1), out=indptr[1:n + 1])
+    indptr[-1] = indptr[-2] + seeds.size
+    indices = np.concatenate([neighbour[mask], seeds])
+    data = np.concatenate([np.broadcast_to(length, (n, 8))[mask], seed_weights])
+    return csr_matrix((data, indices, indptr), shape=(n + 1, n + 1))
+
 
 # ---------------------------------------------------------------------------------------------
 # navigation function
@@ -19,7 +148,7 @@ from .grid import OccupancyGrid, _interpolate, _points, _readonly
 class NavigationFunction:
     """Shortest free-space path length to a goal, interpolated.
 
-    Built once per (grid, goal, inflation).
+    Built once per (grid, goal, inflation, window).
 
     Parameters
     ----------
@@ -30,7 +159,10 @@ class NavigationFunction:
     inflation_radius : float
         Obstacles grow by this much (m), e.g. the robot's radius; >= 0.
     margin : float
-        The working grid is the map extended to hold the goal plus this much (m) around it; >= 0.
+        Free margin (m) of the window around the map; >= 0.
+    near, reach : optional
+        The robot's position (m) and how far its trajectories go (m): see
+        :func:`navigation_window`. Without ``near`` the window is the map plus ``margin``.
 
     Attributes
     ----------
@@ -38,105 +170,87 @@ class NavigationFunction:
     values : ndarray, shape (ny, nx), or None
         Path length (m) at working-grid cell centres; None without a grid.
     working_grid : OccupancyGrid or None
-        The extended (not inflated) grid ``values`` lives on.
+        The window (not inflated) ``values`` lives on.
 
     Notes
     -----
     8-connected Dijkstra over cells whose signed distance exceeds ``inflation_radius``, with edges
-    ``resolution`` and ``resolution * sqrt(2)`` and no diagonal past a blocked cell. The seeds are
-    the 2x2 cells whose centres surround the goal if all are free, else the goal's cell, else
-    (goal cell blocked) the nearest free cells; each is valued at its Euclidean distance to the
-    goal, so ``value(goal)`` is at most ``resolution / sqrt(2)``. Unreached cells (inflated or
-    enclosed) take the value of the nearest reached cell plus the Euclidean distance to it, so the
-    function is finite everywhere and grows into obstacles. With no free cell at all it falls back
-    to Euclidean distance.
+    ``resolution`` and ``resolution * sqrt(2)`` and no diagonal past a blocked cell. With the goal
+    in the window the seeds are the 2x2 cells whose centres surround the goal if all are free,
+    else the goal's cell, else (goal cell blocked) the nearest free cells; each is valued at its
+    Euclidean distance to the goal, so ``value(goal)`` is at most ``resolution / sqrt(2)``. With
+    the goal outside the window the seeds are the free border cells on the sides facing the goal
+    (else the free cells nearest the goal), each valued at its straight-line distance to the goal.
+    Unreached cells (inflated or enclosed) take the value of the nearest reached cell plus the
+    Euclidean distance to it, so the function is finite everywhere and grows into obstacles. With
+    no free cell at all it falls back to Euclidean distance.
     """
 
-    def __init__(self, goal, grid=None, inflation_radius=0.0, margin=2.0):
+    def __init__(self, goal, grid=None, inflation_radius=0.0, margin=2.0, near=None, reach=0.0):
         self.goal = _readonly(finite_vector("goal", goal, 2))
         self.inflation_radius = positive_number("inflation_radius", inflation_radius,
                                                 allow_zero=True)
         margin = positive_number("margin", margin, allow_zero=True)
+        reach = positive_number("reach", reach, allow_zero=True)
+        if near is not None:
+            near = finite_vector("near", near, 2)
         if grid is not None and not isinstance(grid, OccupancyGrid):
             raise TypeError(f"grid={grid!r}: expected an OccupancyGrid or None")
         self.values = None
         self.working_grid = None
         if grid is not None:
-            self.working_grid = self._extend(grid, margin)
-            self.values = _readonly(self._solve())
+            window = navigation_window(grid, self.goal, margin, near, reach)
+            self.working_grid = _crop(grid, window)
+            self.values = _readonly(self._solve(_free(grid, window, self.inflation_radius)))
 
-    def _extend(self, grid, margin):
-        res = grid.resolution
-        xmin, ymin, xmax, ymax = grid.bounds
-        gx, gy = self.goal
-
-        def cells(gap):
-            return max(0, math.ceil(gap / res - 1e-9))
-
-        left, right = cells(xmin - (gx - margin)), cells(gx + margin - xmax)
-        bottom, top = cells(ymin - (gy - margin)), cells(gy + margin - ymax)
-        occ = np.pad(grid.occupied, ((bottom, top), (left, right)), constant_values=False)
-        return OccupancyGrid(occ, res, grid.origin - res * np.array([left, bottom]))
-
-    def _solve(self):
+    def _solve(self, free):
         work = self.working_grid
         res = work.resolution
         ny, nx = work.shape
-        free = work.signed_distance > self.inflation_radius
         iy, ix = np.mgrid[0:ny, 0:nx]
         centres = work.origin + res * (np.stack([ix, iy], axis=-1) + 0.5)
         to_goal = np.hypot(*(centres - self.goal).transpose(2, 0, 1))
         if not free.any():
             return to_goal
 
-        index = np.arange(ny * nx).reshape(ny, nx)
-        rows, cols, weights = [], [], []
-
-        def connect(a, b, ok, length):
-            rows.append(a[ok])
-            cols.append(b[ok])
-            weights.append(np.full(int(ok.sum()), length))
-
-        # right, up, up-right, up-left; both directions added below
-        connect(index[:, :-1], index[:, 1:], free[:, :-1] & free[:, 1:], res)
-        connect(index[:-1, :], index[1:, :], free[:-1, :] & free[1:, :], res)
-        square = free[:-1, :-1] & free[:-1, 1:] & free[1:, :-1] & free[1:, 1:]
-        diag = res * math.sqrt(2.0)
-        connect(index[:-1, :-1], index[1:, 1:], square, diag)
-        connect(index[:-1, 1:], index[1:, :-1], square, diag)
-
         # A virtual source (node ny*nx) feeds the seeds with their Euclidean distance to the goal;
         # edges are offset by res so no weight is zero (a zero would read as "no edge").
-        # Seed the 2x2 cells whose centres surround the goal when all are free (the interpolation
-        # stencil, so NF is near-Euclidean around the goal), else the goal cell alone.
-        u, v = (self.goal - work.origin) / res
-        gx = int(np.clip(math.floor(u), 0, nx - 1))
-        gy = int(np.clip(math.floor(v), 0, ny - 1))
-        sx = int(np.clip(math.floor(u - 0.5), 0, max(nx - 2, 0)))
-        sy = int(np.clip(math.floor(v - 0.5), 0, max(ny - 2, 0)))
-        stencil = np.s_[sy : sy + 2, sx : sx + 2]
-        if free[stencil].all():
-            seeds = index[stencil].ravel()
-        elif free[gy, gx]:
-            seeds = np.array([index[gy, gx]])
-        else:
-            candidates = np.where(free, to_goal, np.inf).ravel()
-            seeds = np.flatnonzero(candidates <= candidates.min() + 1e-9 * res)
-        source = ny * nx
-        a = np.concatenate(rows)
-        b = np.concatenate(cols)
-        w = np.concatenate(weights)
-        a_all = np.concatenate([a, b, np.full(seeds.size, source)])
-        b_all = np.concatenate([b, a, seeds])
-        w_all = np.concatenate([w, w, to_goal.ravel()[seeds] + res])
-        graph = coo_matrix((w_all, (a_all, b_all)), shape=(source + 1, source + 1)).tocsr()
-        dist = dijkstra(graph, directed=True, indices=source)[:-1].reshape(ny, nx) - res
+        index = np.arange(ny * nx).reshape(ny, nx)
+        seeds = self._seeds(free, to_goal, index)
+        graph = _grid_graph(free, res, seeds, to_goal.ravel()[seeds] + res)
+        dist = dijkstra(graph, directed=True, indices=ny * nx)[:-1].reshape(ny, nx) - res
 
         reached = np.isfinite(dist)
         if reached.all():
             return dist
         gap, (near_y, near_x) = ndimage.distance_transform_edt(~reached, return_indices=True)
         return np.where(reached, dist, dist[near_y, near_x] + gap * res)
+
+    def _seeds(self, free, to_goal, index):
+        """Flat indices of the Dijkstra's seeds (see the class notes)."""
+        work = self.working_grid
+        ny, nx = free.shape
+        u, v = (self.goal - work.origin) / work.resolution
+        if 0.0 <= u < nx and 0.0 <= v < ny:
+            # The 2x2 cells whose centres surround the goal (the interpolation stencil, so NF is
+            # near-Euclidean around the goal) when all are free, else the goal cell alone.
+            sx = int(np.clip(math.floor(u - 0.5), 0, max(nx - 2, 0)))
+            sy = int(np.clip(math.floor(v - 0.5), 0, max(ny - 2, 0)))
+            stencil = np.s_[sy : sy + 2, sx : sx + 2]
+            if free[stencil].all():
+                return index[stencil].ravel()
+            if free[int(v), int(u)]:
+                return np.array([index[int(v), int(u)]])
+        else:
+            facing = np.zeros_like(free)
+            facing[:, 0] |= u < 0.0
+            facing[:, -1] |= u >= nx
+            facing[0, :] |= v < 0.0
+            facing[-1, :] |= v >= ny
+            if np.any(facing & free):
+                return index[facing & free]
+        candidates = np.where(free, to_goal, np.inf).ravel()
+        return np.flatnonzero(candidates <= candidates.min() + 1e-9 * work.resolution)
 
     def value(self, points) -> np.ndarray:
         """Navigation function (m) at world points.

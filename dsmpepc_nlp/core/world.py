@@ -15,9 +15,10 @@ import numpy as np
 from .errors import InputError, finite_vector, positive_number
 from .geometry import body_to_world
 from .grid import FAR, OccupancyGrid, _interpolate, _points, _readonly
-from .navigation import NavigationFunction
+from .navigation import NavigationFunction, navigation_window
 
 _NAV_CACHE_SIZE = 16  # navigation functions kept per world; moving goals would grow it forever
+_NAV_MARGIN = 2.0  # free margin (m) of the navigation window around the map
 
 __all__ = ["FAR", "DynamicObstacle", "NavigationFunction", "OccupancyGrid", "World",
            "_interpolate"]
@@ -131,20 +132,29 @@ class World:
         other._navigation_cache = self._navigation_cache
         return other
 
-    def navigation(self, goal, inflation_radius) -> NavigationFunction:
+    def navigation(self, goal, inflation_radius, near=None, reach=0.0) -> NavigationFunction:
         """Navigation function to ``goal`` (2,) (m), obstacles inflated by ``inflation_radius`` (m).
 
-        Cached per (goal rounded to 1e-9 m, inflation radius), shared with :meth:`with_obstacles`
-        copies; the least recently used of more than 16 entries is dropped.
+        ``near`` (2,) (m) and ``reach`` (m): where the robot is and how far its trajectories go;
+        with a goal outside the map they choose the window the values live on (see
+        :func:`~dsmpepc_nlp.core.navigation.navigation_window`). Cached per (goal rounded to
+        1e-9 m, inflation radius, window), shared with :meth:`with_obstacles` copies; the least
+        recently used of more than 16 entries is dropped.
         """
         goal = finite_vector("goal", goal, 2)
         inflation_radius = positive_number("inflation_radius", inflation_radius, allow_zero=True)
-        key = (*np.round(goal, 9).tolist(), inflation_radius)
+        reach = positive_number("reach", reach, allow_zero=True)
+        if near is not None:
+            near = finite_vector("near", near, 2)
+        window = None
+        if self.grid is not None:
+            window = navigation_window(self.grid, goal, _NAV_MARGIN, near, reach)
+        key = (*np.round(goal, 9).tolist(), inflation_radius, window)
         cache = self._navigation_cache
         if key in cache:
             cache.move_to_end(key)
             return cache[key]
-        nav = NavigationFunction(goal, self.grid, inflation_radius)
+        nav = NavigationFunction(goal, self.grid, inflation_radius, _NAV_MARGIN, near, reach)
         cache[key] = nav
         while len(cache) > _NAV_CACHE_SIZE:
             cache.popitem(last=False)

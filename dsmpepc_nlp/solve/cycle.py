@@ -58,7 +58,8 @@ class Cycle:
         times = np.arange(config.horizon.n_steps + 1) * config.horizon.dt
         centers, radii, velocities, owner = world.stacked_obstacles()
         predicted = centers[None, :, :] + velocities[None, :, :] * times[:, None, None]
-        navigation = world.navigation(goal, config.robot.inflation_radius)
+        navigation = world.navigation(goal, config.robot.inflation_radius,
+                                      near=(state.x, state.y), reach=config.reach)
         return cls(config, state, goal, world, times, centers, radii, velocities, owner,
                    predicted, navigation)
 

@@ -499,7 +499,8 @@ def pack_models(poses, world, goal, config: PlannerConfig) -> tuple:
     n_poses = poses.shape[0]
     footprint = np.array(config.robot.footprint)
     n_circles = len(footprint)
-    nav = world.navigation(np.asarray(goal, dtype=float), config.robot.inflation_radius)
+    nav = world.navigation(np.asarray(goal, dtype=float), config.robot.inflation_radius,
+                           near=poses[0, :2], reach=config.reach)
     if nav.values is None:
         nav_model = np.zeros((n_poses, NAV_COLUMNS))
         nav_model[:, :2] = poses[:, :2]
