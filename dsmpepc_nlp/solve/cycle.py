@@ -14,6 +14,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.config import PlannerConfig, RobotState
+from .exact import parameter_vector
+
+CULL_SIGMAS = 7.0
+"""An object farther than this many ``sigma_dynamic`` from everywhere the robot can reach has
+``1 - P_c == 1.0`` exactly in double precision (``exp(-49)`` is below half an ulp of 1), so
+leaving it out of the survivability changes no bit."""
+_REACH_SLACK = 1e-6
+"""Metres added to the reach for the rounding of the rollout's sums."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -37,6 +45,22 @@ class Cycle:
         Each circle's centre at each pose time (constant velocity), m.
     navigation : NavigationFunction
         Path length to the goal on the inflated map (Euclidean without a map).
+    footprint : ndarray, (C, 3)
+        The robot's body-frame circles ``(cx, cy, radius)``, m.
+    reach : ndarray of bool, (number of objects,)
+        Whether each dynamic object can matter to the collision probability within the
+        horizon's reach (see :func:`reach_mask`); the others only enter the smallest distance
+        and the terminal time to collision.
+    parameters : ndarray
+        The compiled kernel's scalar parameters (:data:`~dsmpepc_nlp.solve.exact.PARAMETERS`).
+    kernel_arrays : dict of str to ndarray
+        What the compiled kernel reads, contiguous: ``footprint``; ``sdf`` (the map's signed
+        distance table, read in place) and ``nf`` (the navigation function's table), each with
+        its resolution and origin in ``parameters``; the circles of the objects in ``reach``
+        (``predicted`` (N+1, K', 2), ``radii``, ``velocities``, ``starts``: object ``o`` is
+        circles ``starts[o]:starts[o+1]``); the others' ``culled_predicted`` and
+        ``culled_radii``; every circle at the horizon's end (``end_centers``, ``end_radii``,
+        ``end_velocities``).
     """
 
     config: PlannerConfig
@@ -50,6 +74,10 @@ class Cycle:
     owner: np.ndarray
     predicted: np.ndarray
     navigation: object
+    footprint: np.ndarray = None
+    reach: np.ndarray = None
+    parameters: np.ndarray = None
+    kernel_arrays: dict = None
 
     @classmethod
     def prepare(cls, state: RobotState, world, goal, config: PlannerConfig) -> Cycle:
@@ -60,10 +88,65 @@ class Cycle:
         predicted = centers[None, :, :] + velocities[None, :, :] * times[:, None, None]
         navigation = world.navigation(goal, config.robot.inflation_radius,
                                       near=(state.x, state.y), reach=config.reach)
+        footprint = np.array(config.robot.footprint, dtype=float)
+        reach, floor = reach_mask(state, config, predicted, radii, owner, len(world.obstacles))
+        keep = reach[owner]
+        kept = np.flatnonzero(reach)
+        counts = np.bincount(owner[keep], minlength=len(reach))[kept]
+        grid = world.grid
+        arrays = {
+            "footprint": footprint,
+            "sdf": _table(grid.signed_distance if grid is not None else None),
+            "nf": _table(navigation.values),
+            "predicted": predicted[:, keep], "radii": radii[keep],
+            "velocities": velocities[keep],
+            "starts": np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+            "culled_predicted": predicted[:, ~keep], "culled_radii": radii[~keep],
+            "end_centers": predicted[-1], "end_radii": radii, "end_velocities": velocities,
+        }
+        arrays = {name: a if name in ("sdf", "nf") else np.array(a, order="C")
+                  for name, a in arrays.items()}
+        parameters = parameter_vector(state, goal, config, grid, navigation, floor, CULL_SIGMAS)
         return cls(config, state, goal, world, times, centers, radii, velocities, owner,
-                   predicted, navigation)
+                   predicted, navigation, footprint, reach, parameters, arrays)
 
     @property
     def grid(self):
         """The static OccupancyGrid, or None."""
         return self.world.grid
+
+
+def reach_mask(state: RobotState, config: PlannerConfig, predicted, radii, owner, n_objects):
+    """Which objects can matter to the collision probability within the horizon's reach.
+
+    At step k the robot's origin is within ``k dt v_limit`` of its start (the law never exceeds
+    ``v_max <= v_limit``), so a footprint circle's gap to an object circle is at least
+    ``|c_j(k) - p_0| - k dt v_limit - bounding_radius - r_j``. An object whose bound stays at or
+    above ``CULL_SIGMAS * sigma_dynamic`` at every step is left out (see :data:`CULL_SIGMAS`).
+
+    Returns
+    -------
+    reach : ndarray of bool, (n_objects,)
+    floor : float
+        The smallest bound over the objects left out (inf when none is): an exact smallest
+        distance only needs them when nothing kept is nearer.
+    """
+    robot = config.robot
+    times = np.arange(predicted.shape[0]) * config.horizon.dt
+    spread = np.hypot(predicted[..., 0] - state.x, predicted[..., 1] - state.y)
+    bound = (spread - (times * robot.v_limit)[:, None] - robot.bounding_radius - radii
+             - _REACH_SLACK).min(axis=0) if len(radii) else np.zeros(0)
+    per_object = np.full(n_objects, np.inf)
+    np.minimum.at(per_object, owner, bound)
+    reach = per_object < CULL_SIGMAS * config.cost.sigma_dynamic
+    floor = float(per_object[~reach].min()) if np.any(~reach) else float("inf")
+    return reach, floor
+
+
+def _table(values) -> np.ndarray:
+    """A read-only, C-contiguous float view of a world table (a 1 x 1 stand-in for None): the
+    kernel reads it in place, and one array type means one compiled kernel."""
+    table = np.zeros((1, 1)) if values is None else np.ascontiguousarray(values, dtype=float)
+    view = table.view()
+    view.flags.writeable = False
+    return view

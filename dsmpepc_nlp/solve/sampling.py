@@ -11,6 +11,7 @@ from scipy.stats import qmc
 from ..core.config import PlannerConfig, RobotState, SolverConfig
 from ..core.control_law import Trajectory, rollout, wrap, z_from_target
 from ..core.costs import CostBreakdown, evaluate
+from . import exact
 from .cycle import Cycle
 
 SOFT_TURN = 0.6
@@ -86,14 +87,26 @@ PAIR_BUDGET = 2_000_000
 the exact cost's temporaries near 100 MB however crowded the world."""
 
 
-def evaluate_batch(z, cycle: Cycle) -> Evaluation:
-    """Roll out and cost every row of ``z`` (n, 4) exactly, in chunks bounded by PAIR_BUDGET.
+def evaluate_batch(z, cycle: Cycle, compiled: bool | None = None) -> Evaluation:
+    """Roll out and cost every row of ``z`` (n, 4) exactly.
 
     ``cycle`` (:class:`~dsmpepc_nlp.solve.cycle.Cycle`) carries the state, world, goal and
-    configuration, prepared once per plan.
+    configuration, prepared once per plan. ``compiled`` (default: when available) runs the
+    compiled kernel (:mod:`~dsmpepc_nlp.solve.exact`) on the cycle's arrays; False runs the
+    numpy reference in chunks bounded by PAIR_BUDGET. Both give the same
+    :class:`Evaluation` (to 1e-9, held by tests).
     """
-    state, world, goal, config = cycle.state, cycle.world, cycle.goal, cycle.config
     z = np.atleast_2d(np.asarray(z, dtype=float))
+    module = exact.kernel() if compiled is not False else None
+    if module is not None and z.ndim == 2 and z.shape[1:] == (4,) and exact.inside_reach(z, cycle):
+        trajectories, costs = exact.evaluate_compiled(z, cycle, module)
+        return Evaluation(z, trajectories, costs)
+    return _evaluate_numpy(z, cycle)
+
+
+def _evaluate_numpy(z, cycle: Cycle) -> Evaluation:
+    """The numpy reference of :func:`evaluate_batch`."""
+    state, world, goal, config = cycle.state, cycle.world, cycle.goal, cycle.config
     trajectories = rollout(z, state, config)
     circles = max(1, len(world.stacked_obstacles()[1]))
     per_row = (config.horizon.n_steps + 1) * len(config.robot.footprint) * circles

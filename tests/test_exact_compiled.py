@@ -1,0 +1,186 @@
+"""The compiled exact evaluator agrees with the numpy reference on every output (1e-9).
+
+Random cycles (hypothesis): both variants and both ablations, terms switched off, multi-circle
+footprints, robots of several circles among the obstacles, maps or none, obstacles or none,
+states outside the limits, goals on the robot, and z on every bound of the box (rho -> 0,
+v_max = 0) next to random ones.
+"""
+
+import dataclasses
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from dsmpepc_nlp.core.config import (
+    TERM_NAMES,
+    VARIANTS,
+    CostConfig,
+    PlannerConfig,
+    RobotConfig,
+    RobotState,
+)
+from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
+from dsmpepc_nlp.solve import exact
+from dsmpepc_nlp.solve.cycle import Cycle
+from dsmpepc_nlp.solve.sampling import evaluate_batch
+
+pytestmark = pytest.mark.skipif(exact.kernel() is None,
+                                reason="compiled evaluator unavailable (numba or compile off)")
+
+FIELDS = ("survivability", "min_distance")
+
+
+def assert_same(compiled, reference, tol=1e-9):
+    """Every output of two Evaluations within ``tol`` (relative above 1); infinities equal."""
+    pairs = [("total", compiled.costs.total, reference.costs.total)]
+    pairs += [(name, compiled.costs.terms[name], reference.costs.terms[name])
+              for name in TERM_NAMES]
+    pairs += [(name, getattr(compiled.costs, name), getattr(reference.costs, name))
+              for name in FIELDS]
+    # Times are compared as their inverses (what the cost reads), finite even for "never".
+    pairs += [(name, 1.0 / getattr(compiled.costs, name), 1.0 / getattr(reference.costs, name))
+              for name in ("ttg", "ttc_terminal")]
+    pairs += [(name, getattr(compiled.trajectories, name), getattr(reference.trajectories, name))
+              for name in ("poses", "v", "omega", "target")]
+    for name, a, b in pairs:
+        np.testing.assert_allclose(a, b, rtol=tol, atol=tol, err_msg=name)
+
+
+def edge_z(config, rng, n_random=24):
+    """Every corner of the z box, rho -> 0 and v_max = 0 rows, and random rows."""
+    lower, upper = np.array(config.z_lower), np.array(config.z_upper)
+    corners = np.array([[(lower if (i >> j) & 1 else upper)[j] for j in range(4)]
+                        for i in range(16)])
+    special = np.array([[lower[0], 0.0, 0.0, upper[3]], [lower[0], upper[1], lower[2], 0.0],
+                        [upper[0], 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, upper[3]]])
+    return np.vstack([corners, special, lower + rng.random((n_random, 4)) * (upper - lower)])
+
+
+@st.composite
+def cycles(draw):
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    variant = draw(st.sampled_from(sorted(VARIANTS)))
+    n_circles = draw(st.integers(1, 3))
+    footprint = tuple((float(rng.uniform(-0.3, 0.3)) * (i > 0), float(rng.uniform(-0.2, 0.2))
+                       * (i > 0), float(rng.uniform(0.1, 0.35))) for i in range(n_circles))
+    robot = RobotConfig(footprint=footprint, accel_limit=draw(st.sampled_from([1.5, math.inf])),
+                        alpha_limit=draw(st.sampled_from([3.0, math.inf])))
+    disabled = tuple(name for name in TERM_NAMES if draw(st.booleans()) and rng.random() < 0.3)
+    cost = CostConfig(disabled=disabled, sigma_static=float(rng.uniform(0.05, 0.3)),
+                      sigma_dynamic=float(rng.uniform(0.1, 0.4)))
+    config = PlannerConfig.variant(variant, robot=robot, cost=cost)
+    grid = None
+    if draw(st.booleans()):
+        occupied = rng.random((int(rng.integers(1, 40)), int(rng.integers(1, 40)))) < 0.15
+        grid = OccupancyGrid(occupied, float(rng.uniform(0.1, 0.4)),
+                             rng.uniform(-6.0, -1.0, 2))
+    obstacles = []
+    for _ in range(draw(st.integers(0, 5))):
+        if rng.random() < 0.3:
+            body = [(float(rng.uniform(-0.4, 0.4)), float(rng.uniform(-0.3, 0.3)),
+                     float(rng.uniform(0.1, 0.4))) for _ in range(int(rng.integers(1, 4)))]
+            obstacles.append(DynamicObstacle.robot(
+                (*rng.uniform(-6, 6, 2), rng.uniform(-3, 3)), rng.uniform(-1.5, 1.5, 2), body))
+        else:
+            obstacles.append(DynamicObstacle.pedestrian(rng.uniform(-6, 6, 2),
+                                                        rng.uniform(-1.5, 1.5, 2),
+                                                        float(rng.uniform(0.1, 0.5))))
+    state = RobotState(*rng.uniform(-2, 2, 2), float(rng.uniform(-4, 4)),
+                       float(rng.uniform(-0.5, 1.5)), float(rng.uniform(-2, 2)))
+    goal = (state.x, state.y) if rng.random() < 0.1 else tuple(rng.uniform(-6, 6, 2))
+    return Cycle.prepare(state, World(grid, obstacles), goal, config), edge_z(config, rng)
+
+
+@settings(max_examples=200)
+@given(cycles())
+def test_compiled_equals_numpy_on_random_cycles(case):
+    cycle, z = case
+    assert_same(evaluate_batch(z, cycle, compiled=True), evaluate_batch(z, cycle, compiled=False))
+
+
+def test_overlap_and_far_objects():
+    """Starting inside a pedestrian and beside a wall; some objects beyond reach (culled)."""
+    occupied = np.zeros((30, 30), bool)
+    occupied[:, 14:16] = True
+    far = [DynamicObstacle.pedestrian((40.0 + i, 0.0), (-0.5, 0.0)) for i in range(3)]
+    world = World(OccupancyGrid(occupied, 0.1, (-1.5, -1.5)),
+                  [DynamicObstacle.pedestrian((0.1, 0.0), (0.0, 0.0)), *far])
+    for config in (PlannerConfig.ds_mpepc(), PlannerConfig.mpepc()):
+        cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0), world, (1.0, 1.0), config)
+        assert not cycle.reach[1:].any() and cycle.reach[0]
+        z = edge_z(config, np.random.default_rng(1), 200)
+        compiled = evaluate_batch(z, cycle, compiled=True)
+        assert_same(compiled, evaluate_batch(z, cycle, compiled=False))
+        assert np.all(compiled.costs.survivability[:, 0] == 0.0)
+
+
+def test_min_distance_reaches_culled_objects():
+    """With only far objects, the smallest distance still comes from them (exactly)."""
+    world = World(obstacles=[DynamicObstacle.pedestrian((30.0, 0.0), (0.0, 0.0), 0.3)])
+    cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0), world, (5.0, 0.0), PlannerConfig())
+    assert not cycle.reach.any()
+    z = edge_z(cycle.config, np.random.default_rng(2))
+    compiled = evaluate_batch(z, cycle, compiled=True)
+    assert_same(compiled, evaluate_batch(z, cycle, compiled=False))
+    assert np.all(compiled.costs.min_distance < 30.0)
+
+
+def test_out_of_box_speed_runs_the_reference():
+    """A v_max above v_limit breaks the reach bound the culling rests on: numpy runs."""
+    config = PlannerConfig()
+    world = World(obstacles=[DynamicObstacle.pedestrian((9.0, 0.0), (-1.0, 0.0))])
+    cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0), world, (9.0, 0.0), config)
+    z = np.array([[8.0, 0.0, 0.0, 3.0 * config.robot.v_limit]])
+    assert not exact.inside_reach(z, cycle)
+    assert_same(evaluate_batch(z, cycle), evaluate_batch(z, cycle, compiled=False))
+
+
+def test_fallback_warns_once_and_agrees(tmp_path):
+    """With DSMPEPC_NO_COMPILE=1 the numpy path runs after one warning line."""
+    script = (
+        "import warnings, numpy as np\n"
+        "warnings.simplefilter('always')\n"
+        "from dsmpepc_nlp.core.config import PlannerConfig, RobotState\n"
+        "from dsmpepc_nlp.core.world import World, DynamicObstacle\n"
+        "from dsmpepc_nlp.solve.cycle import Cycle\n"
+        "from dsmpepc_nlp.solve import exact, sampling\n"
+        "w = World(obstacles=[DynamicObstacle.pedestrian((2.0, 0.5), (-0.5, 0.0))])\n"
+        "c = Cycle.prepare(RobotState(0.0, 0.0, 0.0), w, (4.0, 0.0), PlannerConfig())\n"
+        "z = np.array([[2.0, 0.1, 0.2, 0.8], [1.0, 0.0, 0.0, 0.5]])\n"
+        "with warnings.catch_warnings(record=True) as caught:\n"
+        "    warnings.simplefilter('always')\n"
+        "    a = sampling.evaluate_batch(z, c)\n"
+        "    b = sampling.evaluate_batch(z, c)\n"
+        "assert exact.kernel() is None\n"
+        "print(len([x for x in caught if 'numpy path' in str(x.message)]))\n"
+        "print(repr(a.costs.total.tolist()))\n"
+    )
+    env = dict(os.environ, DSMPEPC_NO_COMPILE="1", PYTHONPATH=os.getcwd())
+    out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True,
+                         text=True, check=True, cwd=tmp_path).stdout.splitlines()
+    assert out[0] == "1"
+    w = World(obstacles=[DynamicObstacle.pedestrian((2.0, 0.5), (-0.5, 0.0))])
+    c = Cycle.prepare(RobotState(0.0, 0.0, 0.0), w, (4.0, 0.0), PlannerConfig())
+    compiled = evaluate_batch(np.array([[2.0, 0.1, 0.2, 0.8], [1.0, 0.0, 0.0, 0.5]]), c)
+    np.testing.assert_allclose(compiled.costs.total, eval(out[1]), rtol=1e-9, atol=1e-9)
+
+
+def test_cache_path_names_version_and_source():
+    path = exact.kernel_cache_dir()
+    assert path.name == exact.kernel_source_hash()
+    assert any(path.rglob("*.nbi")), "the compiled kernel is cached on disk"
+
+
+def test_parameter_vector_names_every_field():
+    cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0), World(), (1.0, 0.0),
+                          dataclasses.replace(PlannerConfig(), terminal_cost=False))
+    assert cycle.parameters.shape == (len(exact.PARAMETERS),)
+    values = dict(zip(exact.PARAMETERS, cycle.parameters))
+    assert values["terminal"] == 0.0 and values["on_terminal"] == 0.0
+    assert values["goal_x"] == 1.0 and values["has_grid"] == 0.0
