@@ -14,12 +14,14 @@ from .core.config import (
 )
 from .core.control_law import Trajectory, rollout, rollout_function
 from .core.costs import CostBreakdown, evaluate
-from .solve.planner import Plan, Planner, StartRecord
+from .core.errors import InputError
 from .core.world import DynamicObstacle, NavigationFunction, OccupancyGrid, World
+from .solve.planner import Plan, Planner, StartRecord
 
 __all__ = [
     "BoundsConfig", "ControlLawConfig", "CostBreakdown", "CostConfig", "DockingConfig",
-    "DynamicObstacle", "HorizonConfig", "NavigationFunction", "OccupancyGrid", "Plan", "Planner",
+    "DynamicObstacle", "HorizonConfig", "InputError", "NavigationFunction", "OccupancyGrid",
+    "Plan", "Planner",
     "PlannerConfig", "RobotConfig", "RobotState", "SmoothingConfig", "SolverConfig",
     "StartRecord", "Trajectory", "World", "evaluate", "rollout", "rollout_function",
 ]

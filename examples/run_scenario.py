@@ -14,6 +14,7 @@ import numpy as np
 
 from dsmpepc_nlp.core.config import PlannerConfig, SolverConfig
 from dsmpepc_nlp.sim.metrics import episode_metrics
+from dsmpepc_nlp.sim.panels import cost_panels
 from dsmpepc_nlp.sim.scenario import load_scenario
 from dsmpepc_nlp.sim.simulate import Episode, simulate
 
@@ -34,5 +35,5 @@ path = episode.save(out / "t-corridor.npz")               # NPZ, written atomica
 assert Episode.load(path).outcomes == episode.outcomes
 print("figure:", plots.episode_figure(episode, path=out / "t-corridor.png"))
 state, world, goal = episode.planning_inputs(0)[15]     # the paper's Fig. 2 for one cycle
-print("panels:", plots.cost_panels(state, world, goal, config, n_samples=1024,
-                                   path=out / "t-corridor-panels.png"))
+panels = cost_panels(state, world, goal, config, n_samples=1024)  # sample, then draw
+print("panels:", plots.cost_panels(panels, path=out / "t-corridor-panels.png"))

@@ -119,3 +119,66 @@ def test_run_draws_the_cost_panels_of_a_cycle(tiny, tmp_path, capsys):
     files = json.loads(capsys.readouterr().out)["files"]
     assert files["panels"].endswith(".png") and Path(files["panels"]).is_file()
     assert main(["run", tiny, "--solver", "sampling", "--panels", "-1"]) == 2
+
+
+@pytest.mark.parametrize("option, value, allowed", [
+    ("--samples", "-5", ">= 1"),
+    ("--workers", "-1", ">= 1"),
+    ("--workers", "0", ">= 1"),
+    ("--start-noise", "-1", ">= 0"),
+    ("--start-noise", "nan", ">= 0"),
+    ("--start-noise", "inf", ">= 0"),
+])
+def test_benchmark_options_are_checked_before_anything_runs_or_is_stored(
+        option, value, allowed, tiny, tmp_path, capsys):
+    out = tmp_path / "never"
+    argv = ["benchmark", "scenarios", "--scenarios", tiny, "--variants", "mpepc",
+            "--solver", "sampling", "--out", str(out), option, value]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and option in err and value in err and allowed in err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["sweep", "--param", "s_ttc=1", "--scenarios", "t-corridor", "--samples", "0"],
+     "--samples"),
+    (["benchmark", "barn", "--data", ".", "--v-limit", "nan"], "--v-limit"),
+    (["benchmark", "barn", "--data", ".", "--workers", "-1"], "--workers"),
+    (["benchmark", "crowd", "--data", ".", "--scene", "eth", "--episodes", "0"], "--episodes"),
+    (["benchmark", "crowd", "--data", ".", "--scene", "eth", "--duration", "-3"], "--duration"),
+])
+def test_every_benchmark_checks_its_numbers(argv, option, tmp_path, capsys):
+    assert main(argv + ["--out", str(tmp_path / "never")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"argument {option}" in err
+    assert not (tmp_path / "never").exists()
+
+
+def test_the_text_summary_prints_nested_results_as_lines_not_json():
+    from dsmpepc_nlp.bench.commands import summary_text
+
+    text = summary_text({"runs": 4, "variants": {"circle-4": {"runs": 4, "success_rate": 0.5,
+                                                              "time": float("nan")}}})
+    assert text.splitlines() == ["runs: 4", "variants:", "  circle-4:", "    runs: 4",
+                                 "    success_rate: 0.5", "    time: nan"]
+    assert '"' not in text and "\\" not in text
+
+
+def test_a_resumed_benchmark_with_nothing_left_rewrites_the_csv(tiny, tmp_path, capsys):
+    out = tmp_path / "s"
+    argv = ["benchmark", "scenarios", "--scenarios", tiny, "--variants", "mpepc",
+            "--solver", "sampling", "--samples", "16", "--workers", "1", "--out", str(out)]
+    assert main(argv) == 0
+    written = (out / "scenarios.csv").read_text()
+    (out / "scenarios.csv").unlink()
+    assert main(argv + ["--resume"]) == 0
+    assert "1 already done, 0 to run" in capsys.readouterr().err
+    assert (out / "scenarios.csv").read_text() == written
+
+
+def test_input_error_is_importable_from_the_package_root():
+    from dsmpepc_nlp import InputError
+    from dsmpepc_nlp.core.errors import InputError as Same
+
+    assert InputError is Same

@@ -4,6 +4,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
+from dsmpepc_nlp.sim.panels import cost_panels
 from dsmpepc_nlp.viz import plots
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
 from dsmpepc_nlp.sim.simulate import Agent, FixedGoal, Pedestrian, Scenario, simulate
@@ -40,7 +41,9 @@ def test_episode_figure_draws_map_pedestrians_path_and_samples(episode, tmp_path
 
 def test_cost_panels_show_fifty_of_each(episode):
     state, world, goal = episode.planning_inputs(0)[0]
-    fig = plots.cost_panels(state, world, goal, episode.config(), n_samples=256, n_best=50)
+    data = cost_panels(state, world, goal, episode.config(), n_samples=256, n_best=50)
+    assert [len(poses) for _, poses in data.panels[1:]] == [50, 50, 50]
+    fig = plots.cost_panels(data)
     assert [ax.get_title() for ax in fig.axes] == [
         "Sampled trajectories", "MPEPC cost: lowest", "Time to goal: lowest",
         "Terminal TTC: highest"]

@@ -29,7 +29,7 @@ import numpy as np
 from ..core.config import VARIANTS, PlannerConfig, RobotState, SolverConfig
 from ..core.control_law import arc_step
 from ..core.costs import TERM_NAMES
-from ..core.errors import InputError
+from ..core.errors import InputError, MissingExtra
 from ..sim.simulate import simulate
 
 INSTALL_HINT = 'the ORCA baseline needs pyrvo: pip install "dsmpepc_nlp[orca]"'
@@ -58,7 +58,7 @@ def require_pyrvo():
     try:
         import pyrvo
     except ImportError as exc:
-        raise ImportError(INSTALL_HINT) from exc
+        raise MissingExtra(INSTALL_HINT) from exc
     return pyrvo
 
 

@@ -18,6 +18,7 @@ import os
 
 import numpy as np
 
+from ..core.errors import MissingExtra
 from ..core.progress import bar, say
 
 RATE_OUTCOMES = ("success", "collision", "timeout", "deadlock", "error")
@@ -49,7 +50,7 @@ def _dask(run, tasks, scheduler):
     try:
         from distributed import Client, as_completed
     except ImportError as exc:
-        raise ImportError('--scheduler needs Dask: pip install "dsmpepc_nlp[sweep]"') from exc
+        raise MissingExtra('--scheduler needs Dask: pip install "dsmpepc_nlp[sweep]"') from exc
     with Client(scheduler) as client:
         futures = [client.submit(run, *task, pure=False) for task in tasks]
         for future in as_completed(futures):

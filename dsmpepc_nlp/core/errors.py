@@ -32,3 +32,8 @@ def positive_number(name, value, allow_zero=False):
         allowed = "finite and >= 0" if allow_zero else "finite and > 0"
         raise InputError(f"{name}={value!r}: expected a number {allowed}")
     return x
+
+
+class MissingExtra(InputError, ImportError):
+    """An optional dependency (an extra such as ``orca`` or ``sweep``) that is not installed;
+    the message says how to install it. An ImportError too, so ``except ImportError`` works."""

@@ -1,4 +1,8 @@
-"""Figures and animations: views over logged episodes and single planning cycles.
+"""Figures and animations: views over logged episodes and over data computed elsewhere.
+
+Nothing here runs a planner: what a figure shows is logged (an :class:`Episode`) or computed
+before (:mod:`dsmpepc_nlp.sim.panels` for the paper's Fig. 2), so drawing stays cheap and a
+figure can be redrawn from files.
 
 Paper style (Figs. 1-5): the map black, pedestrians red with their recent traces (the followed
 one green), robot paths blue, a plan's evaluated trajectories grey and its optimum blue. Every
@@ -8,7 +12,6 @@ keep. Nothing in the core package imports this module.
 
 from __future__ import annotations
 
-import dataclasses
 import shutil
 from pathlib import Path
 
@@ -19,8 +22,6 @@ from matplotlib.patches import Circle
 
 from ..core.errors import InputError
 from ..core.geometry import footprint_points
-from ..solve.cycle import Cycle
-from ..solve.sampling import SamplingPlanner, structured_starts
 
 ROBOT_COLOURS = ("tab:blue", "tab:purple", "tab:cyan", "tab:olive", "tab:brown", "tab:pink",
                  "navy", "teal", "darkorange", "slategray")
@@ -139,46 +140,25 @@ def compare_figure(episodes: dict, *, path=None):
     return _finish(fig, path)
 
 
-def cost_panels(state, world, goal, config, *, n_samples: int = 4096, n_best: int = 50,
-                seed: int = 0, path=None):
-    """The paper's Fig. 2 for one planning cycle, from a sampling evaluation of its state.
+def cost_panels(panels, *, path=None):
+    """The paper's Fig. 2 for one planning cycle: four panels of trajectories over the scene.
 
-    Panels: (a) a few sampled trajectories, (b) the ``n_best`` lowest-cost trajectories under
-    MPEPC, (c) the ``n_best`` with the lowest time to goal, (d) the ``n_best`` with the highest
-    terminal time to collision. ``config`` supplies everything but the two switches.
+    ``panels`` is a :class:`~dsmpepc_nlp.sim.panels.CostPanels` (computed by
+    :func:`dsmpepc_nlp.sim.panels.cost_panels`): the first panel's trajectories grey, the
+    others blue; obstacles, the robot and the goal in every panel.
     """
-    from ..core.config import SolverConfig
-
-    mpepc = dataclasses.replace(config, anticipatory_pc=False, terminal_cost=False)
-    ds = dataclasses.replace(config, anticipatory_pc=True, terminal_cost=True)
-    solver = SolverConfig.sampling(n_samples=n_samples, seed=seed)
-    goal = np.asarray(goal, dtype=float)
-    starts = structured_starts(state, goal, config)
-    ev_mpepc = SamplingPlanner(mpepc, solver).search(Cycle.prepare(state, world, goal, mpepc),
-                                                     starts)
-    ev_ds = SamplingPlanner(ds, solver).search(Cycle.prepare(state, world, goal, ds), starts)
-    poses = ev_mpepc.trajectories.poses
-    finite = lambda a, fill: np.where(np.isfinite(a), a, fill)  # noqa: E731
-    panels = [
-        ("Sampled trajectories", np.arange(0, len(poses), max(1, len(poses) // 200))),
-        ("MPEPC cost: lowest", np.argsort(finite(ev_mpepc.costs.total, np.inf))[:n_best]),
-        ("Time to goal: lowest", np.argsort(finite(ev_ds.costs.ttg, np.inf))[:n_best]),
-        ("Terminal TTC: highest",
-         np.argsort(-np.nan_to_num(ev_ds.costs.ttc_terminal, posinf=1e9))[:n_best]),
-    ]
-    fig, axes = plt.subplots(1, 4, figsize=(16, 4.5))
-    reach = config.bounds.r_max
-    for ax, (title, index) in zip(axes, panels):
+    state, world, goal, reach = panels.state, panels.world, panels.goal, panels.reach
+    fig, axes = plt.subplots(1, len(panels.panels), figsize=(16, 4.5))
+    for k, (ax, (title, poses)) in enumerate(zip(axes, panels.panels)):
         draw_map(ax, world.grid)
         for obstacle in world.obstacles:
             colour = "tab:red" if obstacle.kind == "pedestrian" else "dimgray"
             for c, r in zip(obstacle.centers, obstacle.radii):
                 ax.add_patch(Circle(c, r, color=colour, alpha=0.8, zorder=3))
-        for p in poses[index]:
-            ax.plot(p[:, 0], p[:, 1], color="tab:blue" if "Sampled" not in title else "0.5",
-                    lw=0.6, alpha=0.6, zorder=2)
-        circles = np.asarray(config.robot.footprint)
-        _footprint(ax, state.pose, circles, "tab:blue")
+        for p in poses:
+            ax.plot(p[:, 0], p[:, 1], color="0.5" if k == 0 else "tab:blue", lw=0.6, alpha=0.6,
+                    zorder=2)
+        _footprint(ax, state.pose, panels.footprint, "tab:blue")
         ax.plot(*goal, marker="x", color="tab:green", ms=8, mew=2)
         ax.set_xlim(state.x - reach, state.x + reach)
         ax.set_ylim(state.y - reach, state.y + reach)

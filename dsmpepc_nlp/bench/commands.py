@@ -1,0 +1,302 @@
+"""The benchmark commands of ``dsmpepc``, each an ``add_arguments(parser)`` / ``run(args)`` pair.
+
+``crosscheck`` (NLP vs sampling on every cycle of an episode), ``bench`` (plan time on the demo
+scene), ``benchmark barn | crowd | scenarios`` and ``sweep``. :func:`register` adds them to the
+one parser of :mod:`dsmpepc_nlp.cli`, which dispatches to ``run`` and owns the error policy:
+every option is checked by its type before anything runs or is stored, and bad input is an
+:class:`~dsmpepc_nlp.core.errors.InputError` (one line on stderr, exit 2).
+
+Results of the long benchmarks go to ``--out`` (one table per run, written after every row);
+a folder that already holds a table is continued with ``--resume`` or replaced with
+``--overwrite``. The summary goes to stdout (``--json``: one JSON object).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..core import options
+from ..core.config import VARIANTS, PlannerConfig, SolverConfig
+from ..core.errors import InputError
+from ..core.jsonio import json_clean
+from ..core.progress import EpisodeProgress, say
+from ..sim.scenario import load_scenario
+from ..sim.simulate import simulate
+from ..viz import plots
+from . import barn, crowds, sweep
+from .crosscheck import crosscheck
+from .params import parse_params
+from .results import parse_indices
+from .timing import run_bench
+
+SOLVERS = ("nlp", "fast", "sampling")
+PLANNER_VARIANTS = tuple(VARIANTS)
+
+
+def solver_config(name: str, n_samples: int | None = None) -> SolverConfig:
+    """``SolverConfig.named(name)`` (with ``n_samples`` for the sampler when given); an
+    InputError when the NLP is asked and cannot be loaded."""
+    solver = SolverConfig.named(name)
+    if solver.method != "sampling":
+        try:
+            from ..solve import nlp  # noqa: F401  (CasADi's IPOPT may be missing)
+        except ImportError as exc:
+            raise InputError(f"--solver {name}: the NLP solver is not available ({exc}); "
+                             "use --solver sampling") from None
+    return dataclasses.replace(solver, n_samples=n_samples) if n_samples else solver
+
+
+# ---------------------------------------------------------------------------------------------
+# crosscheck and bench
+
+
+def add_crosscheck(p) -> None:
+    p.add_argument("--n-samples", type=options.positive, default=4096,
+                   help="samples of the reference sampling planner")
+    p.add_argument("--tol", type=options.number(0.0), default=0.01,
+                   help="gap counted as 'as good'")
+
+
+def run_crosscheck(args) -> int:
+    if args.solver == "sampling":
+        raise InputError("crosscheck --solver: must be nlp or fast (sampling is the reference)")
+    scenario = load_scenario(args.scenario)
+    config = PlannerConfig.variant(args.variant)
+    solver = solver_config(args.solver)
+    progress = EpisodeProgress(f"{scenario.name} {args.variant} episode (sampling)")
+    episode = simulate(scenario, config, SolverConfig.sampling(), np.random.default_rng(args.seed),
+                       record_trajectories=False, progress=progress)
+    progress.done(", ".join(episode.outcomes))
+    cycles = episode.planning_inputs(0)
+    robot_config = episode.config()
+    if scenario.agents[0].robot is not None:
+        robot_config = dataclasses.replace(robot_config, robot=scenario.agents[0].robot)
+    say(f"[crosscheck] {len(cycles)} cycles, {args.solver} vs sampling "
+        f"({args.n_samples} samples)")
+    started = time.perf_counter()
+    result = crosscheck(cycles, robot_config, solver, n_samples=args.n_samples, tol=args.tol)
+    stem = f"{scenario.name}-{args.variant}-crosscheck-{args.solver}-seed{args.seed}"
+    figure = plots.crosscheck_figure(result.gap, path=Path(args.out) / f"{stem}.png")
+    summary = dict(result.to_dict(), scenario=scenario.name, variant=args.variant,
+                   solver=args.solver, seed=args.seed, wall_time=time.perf_counter() - started,
+                   statuses={s: result.nlp_status.count(s) for s in set(result.nlp_status)},
+                   figure=str(figure))
+    if args.json:
+        print(json.dumps(json_clean(summary), allow_nan=False))
+        return 0
+    print(f"{summary['cycles']} cycles: gap (NLP - sampling) median "
+          f"{_fmt(summary['gap_median'])}, p95 {_fmt(summary['gap_p95'])}, within {args.tol}: "
+          f"{100 * summary['share_within_tol']:.0f}%; NLP plan statuses {summary['statuses']}")
+    print(f"figure: {figure}")
+    return 0
+
+
+def add_bench(p) -> None:
+    p.add_argument("--cycles", type=options.positive, default=20, help="planning cycles to time")
+    p.add_argument("--seed", type=options.seed, default=0)
+    p.add_argument("--json", action="store_true", help="print JSON on stdout")
+
+
+def run_timing(args) -> int:
+    solver_config("nlp")
+    say(f"[bench] timing {args.cycles} cycles of the crowded demo scene")
+    result = run_bench(n_cycles=args.cycles, seed=args.seed)
+    if args.json:
+        print(json.dumps(json_clean(result), allow_nan=False))
+    else:
+        print(result["table"])
+    return 0
+
+
+# ---------------------------------------------------------------------------------------------
+# benchmark barn | crowd | scenarios, sweep
+
+
+def _table_options(parser, out_default: str) -> None:
+    parser.add_argument("--workers", type=options.positive, default=None,
+                        help="parallel worker processes, >= 1 (default: number of cores)")
+    parser.add_argument("--out", default=out_default, help=f"output folder (default {out_default})")
+    parser.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    parser.add_argument("--resume", action="store_true",
+                        help="continue the table in --out, skipping runs already done")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="discard a table already in --out")
+    parser.add_argument("--solver", default="nlp", choices=SOLVERS,
+                        help="planner solver (default nlp)")
+    parser.add_argument("--samples", type=options.positive, default=None,
+                        help="samples per plan of the sampling solver, >= 1 "
+                             "(default: SolverConfig's)")
+
+
+def add_barn(p) -> None:
+    p.add_argument("--data", required=True, help="BARN folder (grid_files/, path_files/, ...)")
+    p.add_argument("--worlds", default="0-299",
+                   help="world indices: 0-299, 0-299:6 (every 6th), 3,7,9 (default 0-299)")
+    p.add_argument("--variant", default="ds-mpepc", choices=PLANNER_VARIANTS)
+    p.add_argument("--v-limit", type=options.number(0.0, low_open=True),
+                   default=barn.DEFAULT_V_LIMIT,
+                   help=f"speed limit, m/s (default {barn.DEFAULT_V_LIMIT}; the Jackal allows 2)")
+    p.add_argument("--resolution", type=options.number(0.0, low_open=True),
+                   default=barn.DEFAULT_RESOLUTION,
+                   help=f"map cell side, m (default {barn.DEFAULT_RESOLUTION})")
+    p.add_argument("--time-limit", type=options.number(0.0, low_open=True),
+                   default=barn.TIME_LIMIT)
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="replace a configuration field, e.g. sigma_static=0.05 (a CostConfig "
+                        "field) or docking.radius=1.5 (repeatable)")
+    _table_options(p, "results/barn")
+
+
+def overrides(specs) -> tuple:
+    """``--set NAME=VALUE`` pairs; each name once, with one value."""
+    params = parse_params(specs)
+    for name, values in params.items():
+        if len(values) != 1:
+            raise InputError(f"--set {name}: give one value, not {len(values)}")
+    return tuple((name, values[0]) for name, values in params.items())
+
+
+def run_barn(args) -> dict:
+    worlds = parse_indices(args.worlds, "--worlds")
+    if not Path(args.data).is_dir():
+        raise InputError(f"--data {args.data!r}: not a folder")
+    settings = barn.BarnSettings(data=str(Path(args.data).resolve()), variant=args.variant,
+                                 solver=args.solver, v_limit=args.v_limit,
+                                 resolution=args.resolution, time_limit=args.time_limit,
+                                 n_samples=args.samples, overrides=overrides(args.set))
+    _, summary = barn.run_benchmark(settings, worlds, args.out, workers=args.workers,
+                                    resume=args.resume, overwrite=args.overwrite)
+    summary["out"] = str(Path(args.out) / "barn.csv")
+    return summary
+
+
+def add_crowd(p) -> None:
+    p.add_argument("--data", required=True, help="ETH/UCY folder (<scene>/test/*.txt)")
+    p.add_argument("--scene", required=True, help="eth, hotel, univ, zara1, zara2 or a file")
+    p.add_argument("--episodes", type=options.positive, default=20)
+    p.add_argument("--seed", type=options.seed, default=0)
+    p.add_argument("--variants", nargs="+", default=["mpepc", "ds-mpepc"],
+                   help=f"{', '.join(PLANNER_VARIANTS)}, orca")
+    p.add_argument("--duration", type=options.number(0.0, low_open=True), default=None,
+                   help=f"episode length, s (default {crowds.DEFAULT_DURATION})")
+    _table_options(p, "results/crowd")
+
+
+def run_crowd(args) -> dict:
+    settings = crowds.CrowdSettings(data=str(Path(args.data).resolve()), scene=args.scene,
+                                    solver=args.solver, n_samples=args.samples,
+                                    **({"duration": args.duration} if args.duration else {}))
+    return crowds.run_benchmark(settings, args.variants, args.episodes, args.seed, args.out,
+                                workers=args.workers, resume=args.resume,
+                                overwrite=args.overwrite)
+
+
+def _grid_options(p, out_default: str) -> None:
+    p.add_argument("--scenarios", required=True,
+                   help="comma-separated scenario names (scenarios/*.yaml) or YAML paths")
+    p.add_argument("--seeds", default="0", help="seeds: 0-4, 0,5,7 (default 0)")
+    p.add_argument("--start-noise", type=options.number(0.0, unit=" m"), default=None,
+                   help="start-position noise, m (std, >= 0), replacing the scenarios' own so "
+                        "that seeds differ (default: the scenario's)")
+    p.add_argument("--scheduler", default=None,
+                   help="address of a Dask scheduler (tcp://host:8786); default: processes")
+    _table_options(p, out_default)
+
+
+def add_scenarios(p) -> None:
+    p.add_argument("--variants", nargs="+", default=["mpepc", "ds-mpepc", "orca"])
+    _grid_options(p, "results/scenarios")
+
+
+def run_scenarios(args) -> dict:
+    settings = sweep.SweepSettings(solver=args.solver, n_samples=args.samples,
+                                   start_noise=args.start_noise)
+    return sweep.run_scenarios(args.variants, [s for s in args.scenarios.split(",") if s],
+                               parse_indices(args.seeds, "--seeds"), settings, args.out,
+                               workers=args.workers, scheduler=args.scheduler,
+                               resume=args.resume, overwrite=args.overwrite)
+
+
+def add_sweep(p) -> None:
+    p.add_argument("--param", action="append", default=[], metavar="NAME=V1,V2,...",
+                   help="a CostConfig field and its values (repeatable)")
+    p.add_argument("--variant", default="ds-mpepc", choices=PLANNER_VARIANTS)
+    _grid_options(p, "results/sweep")
+
+
+def run_sweep(args) -> dict:
+    settings = sweep.SweepSettings(variant=args.variant, solver=args.solver,
+                                   n_samples=args.samples, start_noise=args.start_noise)
+    return sweep.run_sweep(parse_params(args.param), [s for s in args.scenarios.split(",") if s],
+                           parse_indices(args.seeds, "--seeds"), settings, args.out,
+                           workers=args.workers, scheduler=args.scheduler, resume=args.resume,
+                           overwrite=args.overwrite)
+
+
+def summary_text(summary: dict, indent: str = "") -> str:
+    """A benchmark summary as ``key: value`` lines, nested dicts indented (never as JSON text)."""
+    lines = []
+    for key, value in summary.items():
+        if isinstance(value, dict):
+            lines.append(f"{indent}{key}:")
+            lines.append(summary_text(value, indent + "  "))
+        else:
+            lines.append(f"{indent}{key}: {_fmt(value)}")
+    return "\n".join(line for line in lines if line)
+
+
+def _fmt(value) -> str:
+    if isinstance(value, float):
+        return "nan" if math.isnan(value) else f"{value:.4g}"
+    return str(value)
+
+
+def _summarised(run):
+    """``run(args) -> summary`` as a command: the summary printed, exit status 0."""
+    def command(args) -> int:
+        summary = run(args)
+        if args.json:
+            print(json.dumps(json_clean(summary), allow_nan=False, separators=(",", ":")))
+        else:
+            print(summary_text(summary))
+        return 0
+    return command
+
+
+def register(sub, scenario_options) -> None:
+    """Add ``crosscheck``, ``bench``, ``benchmark {barn,crowd,scenarios}`` and ``sweep`` to the
+    subparsers ``sub``; ``scenario_options(parser)`` adds the scenario/variant/solver/seed/out
+    options shared with ``run``. Each parser's ``func`` is the command to dispatch to."""
+    p = sub.add_parser("crosscheck", help="NLP vs sampling (exact costs) on every cycle of an "
+                       "episode of SCENARIO (first robot; the episode is driven by the sampler)")
+    scenario_options(p)
+    add_crosscheck(p)
+    p.set_defaults(func=run_crosscheck)
+    p = sub.add_parser("bench", help="time the planners (IPOPT, fast NLP, sampling at equal "
+                       "cost) on the crowded demo scene")
+    add_bench(p)
+    p.set_defaults(func=run_timing)
+    bench = sub.add_parser("benchmark", help="run a benchmark suite: BARN, ETH/UCY crowds, or "
+                           "variants side by side on scenarios",
+                           description="Run BARN worlds, ETH/UCY crowd crossings or planner "
+                           "variants side by side on YAML scenarios.")
+    kinds = bench.add_subparsers(dest="benchmark", required=True, parser_class=type(bench))
+    for name, text, add, run in (
+            ("barn", "BARN Challenge worlds (static clutter, Jackal)", add_barn, run_barn),
+            ("crowd", "ETH/UCY pedestrians replayed around a crossing robot", add_crowd,
+             run_crowd),
+            ("scenarios", "planner variants (and ORCA) on YAML scenarios", add_scenarios,
+             run_scenarios)):
+        p = kinds.add_parser(name, help=text)
+        add(p)
+        p.set_defaults(func=_summarised(run))
+    p = sub.add_parser("sweep", help="grid of cost parameters x scenarios x seeds",
+                       description="Run a parameter grid; tables and heatmaps.")
+    add_sweep(p)
+    p.set_defaults(func=_summarised(run_sweep))
