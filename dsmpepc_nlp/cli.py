@@ -32,6 +32,7 @@ from .sim.metrics import episode_metrics
 from .sim.panels import cost_panels
 from .sim.scenario import builtin_names, load_scenario
 from .sim.simulate import simulate
+from .solve.exact import build as build_exact
 from .viz import plots
 
 matplotlib.use("Agg")  # files only; the command line never opens a window
@@ -226,8 +227,22 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"from {', '.join(VARIANTS)} (default: mpepc ds-mpepc)")
     p.set_defaults(func=cmd_compare)
 
+    p = sub.add_parser("build", help="compile (or load) the exact evaluator for the built-in "
+                       "configurations into the user cache folder")
+    p.set_defaults(func=cmd_build)
+
     commands.register(sub, _scenario_options)
     return parser
+
+
+def cmd_build(args) -> int:
+    result = build_exact()
+    if not result["compiled"]:
+        print("compiled evaluator off (DSMPEPC_NO_COMPILE or no numba): the numpy path runs")
+        return 0
+    print(f"exact evaluator ready for {', '.join(result['configurations'])} in "
+          f"{result['seconds']:.1f} s; cache: {result['cache']}")
+    return 0
 
 
 def main(argv=None) -> int:

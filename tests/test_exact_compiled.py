@@ -27,11 +27,12 @@ from dsmpepc_nlp.core.config import (
 )
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 from dsmpepc_nlp.solve import exact
-from dsmpepc_nlp.solve.cycle import Cycle
+from dsmpepc_nlp.solve.cycle import PARAMETERS, Cycle
 from dsmpepc_nlp.solve.sampling import evaluate_batch
 
-pytestmark = pytest.mark.skipif(exact.kernel() is None,
-                                reason="compiled evaluator unavailable (numba or compile off)")
+needs_kernel = pytest.mark.skipif(exact.kernel() is None,
+                                  reason="compiled evaluator off (numba missing or "
+                                  "DSMPEPC_NO_COMPILE=1)")
 
 FIELDS = ("survivability", "min_distance")
 
@@ -97,6 +98,7 @@ def cycles(draw):
     return Cycle.prepare(state, World(grid, obstacles), goal, config), edge_z(config, rng)
 
 
+@needs_kernel
 @settings(max_examples=200)
 @given(cycles())
 def test_compiled_equals_numpy_on_random_cycles(case):
@@ -104,6 +106,7 @@ def test_compiled_equals_numpy_on_random_cycles(case):
     assert_same(evaluate_batch(z, cycle, compiled=True), evaluate_batch(z, cycle, compiled=False))
 
 
+@needs_kernel
 def test_overlap_and_far_objects():
     """Starting inside a pedestrian and beside a wall; some objects beyond reach (culled)."""
     occupied = np.zeros((30, 30), bool)
@@ -120,6 +123,7 @@ def test_overlap_and_far_objects():
         assert np.all(compiled.costs.survivability[:, 0] == 0.0)
 
 
+@needs_kernel
 def test_min_distance_reaches_culled_objects():
     """With only far objects, the smallest distance still comes from them (exactly)."""
     world = World(obstacles=[DynamicObstacle.pedestrian((30.0, 0.0), (0.0, 0.0), 0.3)])
@@ -164,13 +168,14 @@ def test_fallback_warns_once_and_agrees(tmp_path):
     env = dict(os.environ, DSMPEPC_NO_COMPILE="1", PYTHONPATH=os.getcwd())
     out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True,
                          text=True, check=True, cwd=tmp_path).stdout.splitlines()
-    assert out[0] == "1"
+    assert out[0] == "1", "exactly one warning line"
     w = World(obstacles=[DynamicObstacle.pedestrian((2.0, 0.5), (-0.5, 0.0))])
     c = Cycle.prepare(RobotState(0.0, 0.0, 0.0), w, (4.0, 0.0), PlannerConfig())
     compiled = evaluate_batch(np.array([[2.0, 0.1, 0.2, 0.8], [1.0, 0.0, 0.0, 0.5]]), c)
     np.testing.assert_allclose(compiled.costs.total, eval(out[1]), rtol=1e-9, atol=1e-9)
 
 
+@needs_kernel
 def test_cache_path_names_version_and_source():
     path = exact.kernel_cache_dir()
     assert path.name == exact.kernel_source_hash()
@@ -180,7 +185,7 @@ def test_cache_path_names_version_and_source():
 def test_parameter_vector_names_every_field():
     cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0), World(), (1.0, 0.0),
                           dataclasses.replace(PlannerConfig(), terminal_cost=False))
-    assert cycle.parameters.shape == (len(exact.PARAMETERS),)
-    values = dict(zip(exact.PARAMETERS, cycle.parameters))
+    assert cycle.parameters.shape == (len(PARAMETERS),)
+    values = dict(zip(PARAMETERS, cycle.parameters))
     assert values["terminal"] == 0.0 and values["on_terminal"] == 0.0
     assert values["goal_x"] == 1.0 and values["has_grid"] == 0.0

@@ -1,16 +1,22 @@
-"""Plan time of the NLP (default and fast) and of the sampler at equal exact cost, side by side.
+"""Plan time of the NLP (default and fast) and of the sampler at equal exact cost, side by side;
+the exact evaluator and a 4096-sample sampling plan on the compiled and the numpy path.
 
-Run ``python -m dsmpepc_nlp.benchmark`` (prints the table). Timings are wall-clock medians on a
-shared machine; nothing here is asserted in tests.
+Run ``dsmpepc bench`` (prints the table; ``--json`` for the numbers). Timings are wall-clock
+medians on a shared machine, both paths measured in the same run so that their ratio is
+meaningful; nothing here is asserted in tests.
 """
 
 from __future__ import annotations
 
+import contextlib
 import time
 
 import numpy as np
 
 from ..core.config import PlannerConfig, SolverConfig
+from ..solve import exact
+from ..solve.cycle import Cycle
+from ..solve.sampling import box_samples, evaluate_batch
 from .crosscheck import demo_cycles
 
 LADDER = (64, 128, 256, 512, 1024, 2048, 4096, 8192, 16384)
@@ -42,7 +48,9 @@ def run_bench(n_cycles: int = 20, seed: int = 0, config: PlannerConfig | None = 
     dict
         ``default``, ``fast``, ``sampling``: each ``median_ms``, ``p95_ms`` (and ``build_s``,
         ``exact_cost_median`` for the NLPs, ``samples_median`` for sampling);
-        ``ratio_default_to_sampling``; ``cycles``; ``table`` (printable).
+        ``ratio_default_to_sampling``; ``overhead_ms`` (the default plan's time outside the
+        NLP solver's runs, median); the fields of :func:`exact_timing`; ``cycles``; ``table``
+        (printable).
     """
     from ..solve.planner import Planner
 
@@ -54,11 +62,14 @@ def run_bench(n_cycles: int = 20, seed: int = 0, config: PlannerConfig | None = 
         started = time.perf_counter()
         planner = Planner(config, solver)
         build_s = time.perf_counter() - started
-        times, costs = [], []
+        times, costs, overheads = [], [], []
         for state, world, goal in cycles:
             plan = planner.plan(state, world, goal, dock=False)
             times.append(plan.wall_time)
             costs.append(plan.fun)
+            overheads.append(plan.wall_time - _solver_s(planner))
+        if name == "default":
+            result["overhead_ms"] = 1e3 * float(np.median(overheads))
         result[name] = {**_summary(times), "build_s": build_s,
                         "exact_cost_median": float(np.nanmedian(costs))}
         if name == "default":
@@ -77,8 +88,58 @@ def run_bench(n_cycles: int = 20, seed: int = 0, config: PlannerConfig | None = 
     result["sampling"] = {**_summary(times), "samples_median": float(np.median(counts))}
     result["ratio_default_to_sampling"] = (result["default"]["median_ms"]
                                            / result["sampling"]["median_ms"])
+    result.update(exact_timing(cycles, config, seed))
     result["table"] = format_table(result)
     return result
+
+
+def _median_s(run, repeats):
+    times = []
+    for _ in range(repeats):
+        started = time.perf_counter()
+        run()
+        times.append(time.perf_counter() - started)
+    return float(np.median(times))
+
+
+def exact_timing(cycles, config: PlannerConfig, seed: int = 0, n: int = 4096,
+                 repeats: int = 7) -> dict:
+    """The exact evaluator and a whole sampling plan, compiled and numpy, in one run.
+
+    ``exact_us_per_trajectory``: a batch of ``n`` box samples on the first demo cycle, the
+    per-cycle object prepared inside the timed call, median of ``repeats``.
+    ``sampling_4096_ms``: median plan time of the sampling planner with ``n`` samples over the
+    cycles. Each has a ``_numpy`` twin and a ``_speedup`` ratio; ``compiled`` says whether the
+    compiled path ran (else both figures are the numpy path's).
+    """
+    state, world, goal = cycles[0]
+    z = box_samples(config, n, seed)
+
+    def batch():
+        evaluate_batch(z, Cycle.prepare(state, world, goal, config))
+
+    from ..solve.planner import Planner
+
+    planner = Planner(config, SolverConfig.sampling(n_samples=n, seed=seed))
+
+    def plans():
+        return [planner.plan(s, w, g, dock=False).wall_time for s, w, g in cycles]
+
+    result = {"compiled": exact.kernel() is not None}
+    batch()                                   # compile or load before timing
+    for suffix, context in (("", contextlib.nullcontext()), ("_numpy", exact.numpy_only())):
+        with context:
+            result[f"exact_us_per_trajectory{suffix}"] = 1e6 * _median_s(batch, repeats) / n
+            result[f"sampling_4096_ms{suffix}"] = 1e3 * float(np.median(plans()))
+    for name in ("exact_us_per_trajectory", "sampling_4096_ms"):
+        result[f"{name}_speedup"] = result[f"{name}_numpy"] / result[name]
+    return result
+
+
+def _solver_s(planner) -> float:
+    """Wall time of the NLP solver's own runs (iterations) in the planner's last plan, s."""
+    stats = getattr(planner.nlp, "last_stats", None) or ()
+    return float(sum(s.get("t_wall_total", 0.0) for s in stats))
 
 
 def format_table(result: dict) -> str:
@@ -89,6 +150,15 @@ def format_table(result: dict) -> str:
         build = f"{row['build_s']:.2f}" if "build_s" in row else "-"
         lines.append(f"{name:<10}{row['median_ms']:>12.1f}{row['p95_ms']:>12.1f}{build:>10}")
     lines.append(f"ratio default/sampling at equal cost: {result['ratio_default_to_sampling']:.2f}")
+    if "exact_us_per_trajectory" in result:
+        path = "compiled" if result["compiled"] else "numpy (compiled path off)"
+        lines.append(f"{'':<28}{path:>12}{'numpy':>12}{'speed-up':>10}")
+        for name, label in (("exact_us_per_trajectory", "exact cost, us/trajectory"),
+                            ("sampling_4096_ms", "sampling plan 4096, ms")):
+            lines.append(f"{label:<28}{result[name]:>12.2f}{result[name + '_numpy']:>12.2f}"
+                         f"{result[name + '_speedup']:>10.1f}")
+    if "overhead_ms" in result:
+        lines.append(f"default plan, non-solver overhead: {result['overhead_ms']:.1f} ms median")
     return "\n".join(lines)
 
 

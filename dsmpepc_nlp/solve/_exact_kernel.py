@@ -12,7 +12,7 @@ written operation for operation in the reference's order, and a property test
 and edge cases. Sums over the steps follow numpy's pairwise summation so that the two paths
 round alike. An edit to either form that the other does not follow fails that test.
 
-The configuration enters as data (a vector named by :data:`.exact.PARAMETERS`), so one compiled
+The configuration enters as data (a vector named by :data:`.cycle.PARAMETERS`), so one compiled
 kernel serves every configuration; :func:`.exact.kernel_cache_dir` keys the on-disk cache by
 package version and this file's source hash.
 
@@ -29,7 +29,7 @@ import numba
 import numpy as np
 from numba import prange
 
-from .exact import PARAMETERS
+from .cycle import PARAMETERS
 
 OUT = ("total", "progress", "action", "collision", "heading", "terminal", "min_distance",
        "inv_ttg", "inv_ttc_terminal", "fragile")

@@ -61,4 +61,5 @@ def warn_once(key: str, message: str) -> None:
     if key in _WARNED:
         return
     _WARNED.add(key)
-    warnings.warn(message, RuntimeWarning, stacklevel=3)
+    # warn_explicit with the package as the "file": shown as exactly one line (no source line).
+    warnings.warn_explicit(message, RuntimeWarning, "dsmpepc_nlp", 0)

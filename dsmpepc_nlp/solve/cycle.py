@@ -14,7 +14,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.config import PlannerConfig, RobotState
-from .exact import parameter_vector
+from ..core.control_law import _RHO_GUARD, clamp_measured
+from ..core.costs import _SIGNIFICANT_BELL, GOAL_TOLERANCE
+
+PARAMETERS = (
+    "x0", "y0", "phi0", "v0", "omega0", "k1", "k2", "beta", "lam", "r_thresh",
+    "omega_limit", "accel_limit", "alpha_limit", "v_limit", "dt", "rho_guard2",
+    "has_grid", "sdf_res", "sdf_ox", "sdf_oy", "ttc_range", "sigma_static",
+    "sigma_dynamic", "a", "s_ttc", "s_ttg", "c_v", "c_w", "anticipatory", "terminal",
+    "nf_grid", "nf_res", "nf_ox", "nf_oy", "goal_x", "goal_y", "goal_tol2",
+    "w_progress", "w_action", "w_collision", "w_heading", "w_terminal",
+    "on_progress", "on_action", "on_collision", "on_heading", "on_terminal",
+    "cull_floor", "near_static", "goal_tol", "cull_sigmas")
+"""Names of the kernel's scalar parameters, in the order of its parameter vector."""
 
 CULL_SIGMAS = 7.0
 """An object farther than this many ``sigma_dynamic`` from everywhere the robot can reach has
@@ -52,7 +64,7 @@ class Cycle:
         horizon's reach (see :func:`reach_mask`); the others only enter the smallest distance
         and the terminal time to collision.
     parameters : ndarray
-        The compiled kernel's scalar parameters (:data:`~dsmpepc_nlp.solve.exact.PARAMETERS`).
+        The compiled kernel's scalar parameters (:data:`PARAMETERS`).
     kernel_arrays : dict of str to ndarray
         What the compiled kernel reads, contiguous: ``footprint``; ``sdf`` (the map's signed
         distance table, read in place) and ``nf`` (the navigation function's table), each with
@@ -150,3 +162,38 @@ def _table(values) -> np.ndarray:
     view = table.view()
     view.flags.writeable = False
     return view
+
+
+def parameter_vector(state, goal, config: PlannerConfig, grid, navigation,
+                     cull_floor: float, cull_sigmas: float) -> np.ndarray:
+    """The kernel's scalar parameters for one cycle (see :data:`PARAMETERS`)."""
+    law, robot, cost = config.control_law, config.robot, config.cost
+    v0, omega0 = clamp_measured(state, config)
+    terms = config.cost_terms()
+    nf_grid = navigation.working_grid
+    values = {
+        "x0": state.x, "y0": state.y, "phi0": state.phi, "v0": v0, "omega0": omega0,
+        "k1": law.k1, "k2": law.k2, "beta": law.beta, "lam": law.lam, "r_thresh": law.r_thresh,
+        "omega_limit": robot.omega_limit, "accel_limit": robot.accel_limit,
+        "alpha_limit": robot.alpha_limit, "v_limit": robot.v_limit, "dt": config.horizon.dt,
+        "rho_guard2": _RHO_GUARD ** 2, "has_grid": grid is not None,
+        "sdf_res": grid.resolution if grid is not None else 1.0,
+        "sdf_ox": grid.origin[0] if grid is not None else 0.0,
+        "sdf_oy": grid.origin[1] if grid is not None else 0.0,
+        "ttc_range": cost.ttc_range, "sigma_static": cost.sigma_static,
+        "sigma_dynamic": cost.sigma_dynamic, "a": cost.a, "s_ttc": cost.s_ttc,
+        "s_ttg": cost.s_ttg, "c_v": cost.c_v, "c_w": cost.c_w,
+        "anticipatory": config.anticipatory_pc, "terminal": config.terminal_cost,
+        "nf_grid": navigation.values is not None,
+        "nf_res": nf_grid.resolution if nf_grid is not None else 1.0,
+        "nf_ox": nf_grid.origin[0] if nf_grid is not None else 0.0,
+        "nf_oy": nf_grid.origin[1] if nf_grid is not None else 0.0,
+        "goal_x": navigation.goal[0], "goal_y": navigation.goal[1],
+        "goal_tol2": GOAL_TOLERANCE ** 2, "goal_tol": GOAL_TOLERANCE,
+        "cull_floor": cull_floor, "cull_sigmas": cull_sigmas,
+        "near_static": _SIGNIFICANT_BELL * cost.sigma_static,
+    }
+    for name, weight, enabled in terms:
+        values[f"w_{name}"] = weight
+        values[f"on_{name}"] = enabled
+    return np.array([float(values[name]) for name in PARAMETERS])

@@ -16,66 +16,24 @@ vector), so one compiled kernel serves every configuration.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib
 import math
+import time
 from pathlib import Path
 
 import numpy as np
 
-from ..core.config import PlannerConfig
-from ..core.control_law import _RHO_GUARD, Trajectory, clamp_measured, rollout
-from ..core.costs import _SIGNIFICANT_BELL, GOAL_TOLERANCE, CostBreakdown
+from ..core.config import VARIANTS, PlannerConfig, RobotState
+from ..core.control_law import Trajectory, rollout
+from ..core.costs import CostBreakdown
+from ..core.world import DynamicObstacle, OccupancyGrid, World
 from .cache import cache_dir, compile_enabled, warn_once
-
-PARAMETERS = (
-    "x0", "y0", "phi0", "v0", "omega0", "k1", "k2", "beta", "lam", "r_thresh",
-    "omega_limit", "accel_limit", "alpha_limit", "v_limit", "dt", "rho_guard2",
-    "has_grid", "sdf_res", "sdf_ox", "sdf_oy", "ttc_range", "sigma_static",
-    "sigma_dynamic", "a", "s_ttc", "s_ttg", "c_v", "c_w", "anticipatory", "terminal",
-    "nf_grid", "nf_res", "nf_ox", "nf_oy", "goal_x", "goal_y", "goal_tol2",
-    "w_progress", "w_action", "w_collision", "w_heading", "w_terminal",
-    "on_progress", "on_action", "on_collision", "on_heading", "on_terminal",
-    "cull_floor", "near_static", "goal_tol", "cull_sigmas")
-"""Names of the kernel's scalar parameters, in the order of its parameter vector."""
+from .cycle import Cycle
 
 _KERNEL_FILE = Path(__file__).with_name("_exact_kernel.py")
-_STATE = {"kernel": None, "failed": False}
-
-
-def parameter_vector(state, goal, config: PlannerConfig, grid, navigation,
-                     cull_floor: float, cull_sigmas: float) -> np.ndarray:
-    """The kernel's scalar parameters for one cycle (see :data:`PARAMETERS`)."""
-    law, robot, cost = config.control_law, config.robot, config.cost
-    v0, omega0 = clamp_measured(state, config)
-    terms = config.cost_terms()
-    nf_grid = navigation.working_grid
-    values = {
-        "x0": state.x, "y0": state.y, "phi0": state.phi, "v0": v0, "omega0": omega0,
-        "k1": law.k1, "k2": law.k2, "beta": law.beta, "lam": law.lam, "r_thresh": law.r_thresh,
-        "omega_limit": robot.omega_limit, "accel_limit": robot.accel_limit,
-        "alpha_limit": robot.alpha_limit, "v_limit": robot.v_limit, "dt": config.horizon.dt,
-        "rho_guard2": _RHO_GUARD ** 2, "has_grid": grid is not None,
-        "sdf_res": grid.resolution if grid is not None else 1.0,
-        "sdf_ox": grid.origin[0] if grid is not None else 0.0,
-        "sdf_oy": grid.origin[1] if grid is not None else 0.0,
-        "ttc_range": cost.ttc_range, "sigma_static": cost.sigma_static,
-        "sigma_dynamic": cost.sigma_dynamic, "a": cost.a, "s_ttc": cost.s_ttc,
-        "s_ttg": cost.s_ttg, "c_v": cost.c_v, "c_w": cost.c_w,
-        "anticipatory": config.anticipatory_pc, "terminal": config.terminal_cost,
-        "nf_grid": navigation.values is not None,
-        "nf_res": nf_grid.resolution if nf_grid is not None else 1.0,
-        "nf_ox": nf_grid.origin[0] if nf_grid is not None else 0.0,
-        "nf_oy": nf_grid.origin[1] if nf_grid is not None else 0.0,
-        "goal_x": navigation.goal[0], "goal_y": navigation.goal[1],
-        "goal_tol2": GOAL_TOLERANCE ** 2, "goal_tol": GOAL_TOLERANCE,
-        "cull_floor": cull_floor, "cull_sigmas": cull_sigmas,
-        "near_static": _SIGNIFICANT_BELL * cost.sigma_static,
-    }
-    for name, weight, enabled in terms:
-        values[f"w_{name}"] = weight
-        values[f"on_{name}"] = enabled
-    return np.array([float(values[name]) for name in PARAMETERS])
+_STATE = {"kernel": None, "failed": False, "numpy_only": False}
 
 
 def kernel_source_hash() -> str:
@@ -96,10 +54,12 @@ def kernel():
     The first call imports numba and the kernel with numba's cache pointed at
     :func:`kernel_cache_dir`; without it, one warning line says the numpy path runs.
     """
+    if _STATE["numpy_only"]:
+        return None
     if _STATE["kernel"] is not None:
         return _STATE["kernel"]
     if _STATE["failed"] or not compile_enabled():
-        warn_once("exact-compile", "dsmpepc_nlp: exact cost on the numpy path (compiled "
+        warn_once("exact-compile", "exact cost on the numpy path (compiled "
                   "evaluator off: DSMPEPC_NO_COMPILE is set or numba is missing); slower")
         return None
     try:
@@ -114,6 +74,18 @@ def kernel():
     finally:
         numba.config.CACHE_DIR = previous
     return _STATE["kernel"]
+
+
+@contextlib.contextmanager
+def numpy_only():
+    """Within this block every exact evaluation runs the numpy reference (for side-by-side
+    timing and comparisons), without the fallback warning."""
+    previous = _STATE["numpy_only"]
+    _STATE["numpy_only"] = True
+    try:
+        yield
+    finally:
+        _STATE["numpy_only"] = previous
 
 
 def evaluate_compiled(z: np.ndarray, cycle, module) -> tuple[Trajectory, CostBreakdown]:
@@ -164,3 +136,30 @@ def inside_reach(z: np.ndarray, cycle) -> bool:
     """True when no row's v_max exceeds v_limit (the culling of the cycle assumes it)."""
     return bool(np.all(z[:, 3] <= cycle.config.robot.v_limit)) and math.isfinite(
         float(np.sum(z)))
+
+
+def build() -> dict:
+    """Compile (or load) the kernel and run it once per built-in configuration.
+
+    One compiled kernel serves every configuration; running each variant (MPEPC, DS-MPEPC and
+    the two ablations) on a small map with a pedestrian and a robot checks that it loads and
+    runs for all of them. Returns ``compiled`` (False on the numpy path), ``seconds``,
+    ``cache`` (the folder) and ``configurations``.
+    """
+    started = time.perf_counter()
+    module = kernel()
+    occupied = np.zeros((20, 20), dtype=bool)
+    occupied[:, 12] = True
+    world = World(OccupancyGrid(occupied, 0.2, (-2.0, -2.0)),
+                  [DynamicObstacle.pedestrian((1.5, 0.5), (-0.5, 0.0)),
+                   DynamicObstacle.robot((0.0, 1.5, 0.0), (0.2, 0.0),
+                                         ((0.2, 0.0, 0.2), (-0.2, 0.0, 0.2)))])
+    z = np.array([[1.0, 0.0, 0.0, 0.5], [2.0, 0.3, -0.3, 1.0]])
+    for name in VARIANTS:
+        cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0), world, (3.0, 0.0),
+                              PlannerConfig.variant(name))
+        if module is not None:
+            evaluate_compiled(z, cycle, module)
+    return {"compiled": module is not None, "seconds": time.perf_counter() - started,
+            "cache": str(kernel_cache_dir()) if module is not None else None,
+            "configurations": list(VARIANTS)}

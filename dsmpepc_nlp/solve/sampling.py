@@ -82,18 +82,19 @@ class Evaluation:
         return int(np.argmin(total))
 
 
-PAIR_BUDGET = 2_000_000
-"""Largest (trajectory, pose, footprint circle, obstacle circle) count costed in one batch: keeps
-the exact cost's temporaries near 100 MB however crowded the world."""
+PAIR_BUDGET = SolverConfig.pair_budget
+"""Default of :attr:`SolverConfig.pair_budget` (kept for importers of the old constant)."""
 
 
-def evaluate_batch(z, cycle: Cycle, compiled: bool | None = None) -> Evaluation:
+def evaluate_batch(z, cycle: Cycle, compiled: bool | None = None,
+                   pair_budget: int = PAIR_BUDGET) -> Evaluation:
     """Roll out and cost every row of ``z`` (n, 4) exactly.
 
     ``cycle`` (:class:`~dsmpepc_nlp.solve.cycle.Cycle`) carries the state, world, goal and
     configuration, prepared once per plan. ``compiled`` (default: when available) runs the
     compiled kernel (:mod:`~dsmpepc_nlp.solve.exact`) on the cycle's arrays; False runs the
-    numpy reference in chunks bounded by PAIR_BUDGET. Both give the same
+    numpy reference in chunks of at most ``pair_budget`` (trajectory, pose, footprint circle,
+    obstacle circle) tuples (:attr:`SolverConfig.pair_budget`). Both give the same
     :class:`Evaluation` (to 1e-9, held by tests).
     """
     z = np.atleast_2d(np.asarray(z, dtype=float))
@@ -101,16 +102,16 @@ def evaluate_batch(z, cycle: Cycle, compiled: bool | None = None) -> Evaluation:
     if module is not None and z.ndim == 2 and z.shape[1:] == (4,) and exact.inside_reach(z, cycle):
         trajectories, costs = exact.evaluate_compiled(z, cycle, module)
         return Evaluation(z, trajectories, costs)
-    return _evaluate_numpy(z, cycle)
+    return _evaluate_numpy(z, cycle, pair_budget)
 
 
-def _evaluate_numpy(z, cycle: Cycle) -> Evaluation:
+def _evaluate_numpy(z, cycle: Cycle, pair_budget: int) -> Evaluation:
     """The numpy reference of :func:`evaluate_batch`."""
     state, world, goal, config = cycle.state, cycle.world, cycle.goal, cycle.config
     trajectories = rollout(z, state, config)
     circles = max(1, len(world.stacked_obstacles()[1]))
     per_row = (config.horizon.n_steps + 1) * len(config.robot.footprint) * circles
-    chunk = max(1, PAIR_BUDGET // per_row)
+    chunk = max(1, pair_budget // per_row)
     if len(z) <= chunk:
         return Evaluation(z, trajectories, evaluate(trajectories, world, goal, config))
     parts = [evaluate(trajectories[i:i + chunk], world, goal, config)
@@ -136,9 +137,11 @@ class SamplingPlanner:
     def __init__(self, config: PlannerConfig, solver: SolverConfig | None = None):
         solver = SolverConfig.sampling() if solver is None else solver
         self.config = config
+        self.pair_budget = solver.pair_budget
         self.samples = box_samples(config, solver.n_samples, solver.seed)
 
     def search(self, cycle: Cycle, starts: dict | None = None) -> Evaluation:
         """Evaluate the sample set and ``starts`` (a dict of named z); see :class:`Evaluation`."""
         extra = np.array(list(starts.values())) if starts else np.zeros((0, 4))
-        return evaluate_batch(np.vstack([extra, self.samples]), cycle)
+        return evaluate_batch(np.vstack([extra, self.samples]), cycle,
+                              pair_budget=self.pair_budget)
