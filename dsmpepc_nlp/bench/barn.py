@@ -37,8 +37,9 @@ from ..core.world import OccupancyGrid
 from ..sim.metrics import episode_metrics
 from ..sim.simulate import simulate
 from ..sim.types import Agent, FixedGoal, Scenario
+from ..viz.results import outcome_figure
 from .params import configure
-from .results import ResultTable, atomic_savefig
+from .results import ResultTable
 from .runner import mean, outcome_rates, run_all
 
 CELL = 0.15
@@ -343,40 +344,7 @@ def run_benchmark(settings: BarnSettings, worlds, out_dir, *, workers: int | Non
             and r["solver"] == settings.solver and r["world"] in set(worlds)]
     rows.sort(key=lambda r: r["world"])
     summary = summarise(rows)
-    plot_outcomes(rows, Path(out_dir) / "barn.png",
-                  title=f"BARN, {settings.variant} ({settings.solver}), "
-                        f"success {summary['success_rate']:.2f}")
+    outcome_figure(rows, Path(out_dir) / "barn.png",
+                   title=f"BARN, {settings.variant} ({settings.solver}), "
+                         f"success {summary['success_rate']:.2f}")
     return rows, summary
-
-
-def plot_outcomes(rows, path, title="BARN") -> Path:
-    """Outcome of every world against its index (the difficulty order), coloured markers."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    colours = {"success": "tab:green", "collision": "tab:red", "timeout": "tab:orange",
-               "deadlock": "tab:purple", "error": "black"}
-    fig, (ax, bx) = plt.subplots(2, 1, figsize=(9, 4.5), sharex=True,
-                                 gridspec_kw={"height_ratios": [1, 2]})
-    for outcome, colour in colours.items():
-        sel = [r for r in rows if r["outcome"] == outcome]
-        if not sel:
-            continue
-        idx = [r["world"] for r in sel]
-        ax.scatter(idx, [list(colours).index(outcome)] * len(sel), c=colour, s=14,
-                   label=f"{outcome} ({len(sel)})")
-        bx.scatter(idx, [r.get("score") or 0.0 for r in sel], c=colour, s=14)
-    ax.set_yticks(range(len(colours)), list(colours))
-    ax.set_ylim(-0.5, len(colours) - 0.5)
-    ax.legend(loc="upper left", fontsize=7, ncol=5, bbox_to_anchor=(0, 1.45))
-    bx.set_ylabel("score")
-    bx.set_ylim(-0.02, 0.52)
-    bx.set_xlabel("world index (roughly increasing difficulty)")
-    ax.set_title(title, pad=28)
-    fig.tight_layout()
-    try:
-        return atomic_savefig(fig, path, dpi=120)
-    finally:
-        plt.close(fig)

@@ -25,9 +25,10 @@ from ..core.errors import InputError
 from ..sim.metrics import episode_metrics
 from ..sim.scenario import load_scenario
 from ..sim.simulate import simulate
+from ..viz.results import heatmap_figure
 from .orca import check_variants, simulate_orca
 from .params import SECTIONS, configure, parse_params  # noqa: F401 (re-exported)
-from .results import ResultTable, atomic_savefig
+from .results import ResultTable
 from .runner import mean, outcome_rates, run_all
 
 
@@ -158,37 +159,13 @@ def rate_grid(rows, x_name: str, y_name: str, value: str) -> tuple:
 
 def plot_heatmaps(rows, names, out_dir) -> list:
     """Success and deadlock rate per parameter pair (or parameter x scenario), PNG files."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     pairs = list(itertools.combinations(names, 2)) or [(names[0], "scenario")]
     paths = []
     for x_name, y_name in pairs:
-        fig, axes = plt.subplots(1, 2, figsize=(9, 3.8))
-        for ax, value, cmap in ((axes[0], "success_rate", "viridis"),
-                                (axes[1], "deadlock_rate", "magma")):
-            xs, ys, grid = rate_grid(rows, x_name, y_name, value)
-            image = ax.imshow(grid, origin="lower", vmin=0, vmax=1, cmap=cmap, aspect="auto")
-            ax.set_xticks(range(len(xs)), [f"{x:g}" for x in xs])
-            ax.set_yticks(range(len(ys)), [f"{y:g}" if isinstance(y, float) else
-                                           Path(str(y)).stem for y in ys])
-            ax.set_xlabel(x_name)
-            ax.set_ylabel(y_name)
-            ax.set_title(value.replace("_", " "))
-            for j in range(len(ys)):
-                for i in range(len(xs)):
-                    if np.isfinite(grid[j, i]):
-                        ax.text(i, j, f"{grid[j, i]:.2f}", ha="center", va="center",
-                                color="white" if grid[j, i] < 0.6 else "black", fontsize=8)
-            fig.colorbar(image, ax=ax, fraction=0.046)
-        fig.tight_layout()
-        path = out_dir / f"sweep_{x_name}_{y_name}.png"
-        try:
-            paths.append(atomic_savefig(fig, path, dpi=110))
-        finally:
-            plt.close(fig)
+        grids = [(value, *rate_grid(rows, x_name, y_name, value))
+                 for value in ("success_rate", "deadlock_rate")]
+        paths.append(heatmap_figure(x_name, y_name, grids,
+                                    Path(out_dir) / f"sweep_{x_name}_{y_name}.png"))
     return paths
 
 
