@@ -77,11 +77,8 @@ from ..core.control_law import EXACT, clamp_measured, rollout, step_function, ta
 from ..core.costs import TERM_NAMES, assemble, disk_inverse_ttc, heading_error, inverse_ttg
 from ..core.errors import InputError
 from ..core.geometry import body_to_world, footprint_points
+from ..core.grid import FAR  # distance to nothing (also padding objects): exp(-FAR^2/s^2) == 0
 from ..core.smooth import CASADI, relu, sigmoid, smax, softmax_objects, softmin_objects
-
-FAR = 1.0e3
-"""Distance reported by padding objects and by the map model of a world without a map, m:
-exp(-FAR^2/sigma^2) is exactly 0."""
 
 MODEL_RADIUS = 0.5
 """Trust radius of the local quadratic models, m: the curvature term is damped by
