@@ -34,6 +34,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 TARGETS = ("dsmpepc_nlp/core/costs.py", "dsmpepc_nlp/core/control_law.py")
 TESTS = ("tests/test_costs.py", "tests/test_control_law.py", "tests/test_cost_terms.py",
+         "tests/test_hand_cases.py",
          "tests/test_smooth.py")
 
 _SWAP_BINOP = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,

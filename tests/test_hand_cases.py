@@ -1,0 +1,106 @@
+"""Hand-worked cases for what the mutation check (tools/mutation_check.py) found untested:
+the law's curvature off the axes, arcs, several-circle obstacles, time to collision against
+moving obstacles along a trajectory and at the horizon's end. Each expected value is computed
+here from METHOD.md's formulas, not from the package's helpers."""
+
+import math
+
+import numpy as np
+import pytest
+
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState
+from dsmpepc_nlp.core.control_law import arc_step, law_command, rollout
+from dsmpepc_nlp.core.costs import evaluate, exact_geometry
+from dsmpepc_nlp.core.world import DynamicObstacle, World
+
+DS = PlannerConfig.ds_mpepc()
+
+
+def _first_root_inverse(p, w, radius):
+    """1/t for the smallest t >= 0 with |p + w t| = radius (0 for none), by the quadratic."""
+    a, b, c = w @ w, 2 * p @ w, p @ p - radius**2
+    if c <= 0:
+        return math.inf
+    disc = b * b - 4 * a * c
+    if a == 0 or disc < 0:
+        return 0.0
+    t = (-b - math.sqrt(disc)) / (2 * a)
+    return 1.0 / t if t > 0 else 0.0
+
+
+def test_curvature_of_the_law_off_the_line_of_sight():
+    # Park and Kuipers (2011): kappa = -(1/r)[k2 (de - atan(-k1 th)) + (1 + k1/(1 + (k1 th)^2)) sin de]
+    law = DS.control_law
+    pose, target = (0.0, 0.0, 0.4), (2.0, 1.0, -0.3)
+    los = math.atan2(1.0, 2.0)
+    rho = math.hypot(2.0, 1.0)
+    th, de = target[2] - los, pose[2] - los
+    kappa = -(law.k2 * (de - math.atan(-law.k1 * th))
+              + (1 + law.k1 / (1 + (law.k1 * th) ** 2)) * math.sin(de)) / rho
+    v, omega = law_command(pose, target, 0.8, DS)
+    assert omega / v == pytest.approx(kappa, rel=1e-12)
+    slowed = 0.8 / (1 + law.beta * abs(kappa) ** law.lam)
+    expected_v = min(slowed, 0.8 * rho / law.r_thresh, DS.robot.omega_limit / abs(kappa))
+    assert v == pytest.approx(expected_v, rel=1e-12)
+
+
+def test_arc_step_follows_the_circle():
+    # Holding v = 1 m/s, omega = 1 rad/s for pi/2 s from the origin: a quarter of the unit
+    # circle centred at (0, 1), ending at (1, 1) facing +y.
+    x, y, phi = arc_step((0.0, 0.0, 0.0), 1.0, 1.0, math.pi / 2)
+    assert (x, y, phi) == pytest.approx((1.0, 1.0, math.pi / 2), abs=1e-12)
+    x, y, phi = arc_step((0.0, 0.0, 0.0), 1.0, -1.0, math.pi / 2)
+    assert (x, y, phi) == pytest.approx((1.0, -1.0, -math.pi / 2), abs=1e-12)
+
+
+def test_a_batch_knows_its_length():
+    z = np.array([[2.0, 0.0, 0.0, 0.5]] * 3)
+    assert len(rollout(z, RobotState(0, 0, 0), DS)) == 3
+    assert len(rollout(z[0], RobotState(0, 0, 0), DS)) == 1
+
+
+def test_a_robot_of_two_circles_is_one_object():
+    # Another robot's footprint of two circles counts once: its distance is the nearer circle's.
+    other = DynamicObstacle.robot((3.0, 0.4, math.pi / 2), (0.0, 0.0),
+                                  ((0.2, 0.0, 0.25), (-0.2, 0.0, 0.25)))
+    walker = DynamicObstacle.pedestrian((0.0, 3.0), (0.0, 0.0))
+    world = World(obstacles=[other, walker])
+    stop = rollout(np.array([2.0, 0.0, 0.0, 0.0]), RobotState(0.0, 0.0, 0.0), DS)
+    geometry = exact_geometry(stop[None], world, (5.0, 0.0), DS)
+    assert geometry.distance.shape[-1] == 2
+    # Circles at (3, 0.6) and (3, 0.2) (the robot faces +y); the nearer is (3, 0.2).
+    expected = math.hypot(3.0, 0.2) - 0.3 - 0.25
+    assert geometry.distance[0, 0, 0] == pytest.approx(expected, rel=1e-12)
+    assert geometry.distance[0, 0, 1] == pytest.approx(3.0 - 0.3 - 0.3, rel=1e-12)
+
+
+def test_time_to_collision_along_a_trajectory_against_moving_obstacles():
+    # Every pose's 1/TTC, worked with the quadratic: robot speed along its heading, each
+    # pedestrian at its constant-velocity prediction for that pose's time.
+    walkers = [DynamicObstacle.pedestrian((4.0, 0.7), (-0.6, -0.1)),
+               DynamicObstacle.pedestrian((1.0, -2.5), (0.1, 0.5))]
+    world = World(obstacles=walkers)
+    traj = rollout(np.array([4.0, 0.2, -0.1, 0.9]), RobotState(0.0, 0.0, 0.1, 0.3, 0.0), DS)
+    geometry = exact_geometry(traj[None], world, (6.0, 0.0), DS)
+    dt = DS.horizon.dt
+    speeds = np.append(traj.v, traj.v[-1])
+    for k, (x, y, phi) in enumerate(traj.poses):
+        velocity = speeds[k] * np.array([math.cos(phi), math.sin(phi)])
+        for i, walker in enumerate(walkers):
+            centre = walker.centers[0] + walker.velocity * k * dt
+            expected = _first_root_inverse(np.array([x, y]) - centre,
+                                           velocity - walker.velocity, 0.3 + 0.3)
+            assert geometry.inv_ttc[0, k, i] == pytest.approx(expected, rel=1e-9, abs=1e-12)
+
+
+def test_terminal_time_to_collision_sees_where_the_obstacle_will_be():
+    # A stop trajectory ends where it starts; the terminal TTC moves it at v_limit along its
+    # heading and the pedestrian from its position at the horizon's end, t = N dt.
+    walker = DynamicObstacle.pedestrian((3.0, 0.4), (-0.1, 0.02))
+    stop = rollout(np.array([2.0, 0.0, 0.0, 0.0]), RobotState(0.0, 0.0, 0.0), DS)
+    costs = evaluate(stop, World(obstacles=[walker]), (8.0, 0.0), DS)
+    t_end = DS.horizon.n_steps * DS.horizon.dt
+    centre = np.array([3.0, 0.4]) + np.array([-0.1, 0.02]) * t_end
+    expected = _first_root_inverse(-centre, np.array([DS.robot.v_limit + 0.1, -0.02]), 0.6)
+    assert expected > 0.0
+    assert 1.0 / costs.ttc_terminal == pytest.approx(expected, rel=1e-9)
