@@ -1,5 +1,6 @@
 """Result tables: atomic writes, resume skipping done rows, strict JSON, index ranges."""
 
+import io
 import json
 import os
 
@@ -125,7 +126,7 @@ def test_a_resumed_run_with_nothing_left_rewrites_the_csv(tmp_path):
     table.add({"k": 0, "x": 1.0})
     (tmp_path / "t.csv").unlink()
     assert run_all(dict, [((("k", 0),),)], table, label="t", key=lambda task: (0,),
-                   stream=False) == 0
+                   progress=None) == 0
     assert (tmp_path / "t.csv").read_text().splitlines() == ["k,x", "0,1.0"]
 
 
@@ -136,7 +137,7 @@ def test_run_all_adds_one_row_per_task_and_skips_done_keys(tmp_path):
     table.add({"k": 1, "x": "old"})
     tasks = [((("k", k), ("x", "new")),) for k in range(3)]
     ran = run_all(dict, tasks, table, label="t", key=lambda task: (task[0][0][1],),
-                  workers=1, stream=False)
+                  workers=1, progress=None)
     assert ran == 2
     assert sorted((r["k"], r["x"]) for r in table.rows) == [(0, "new"), (1, "old"), (2, "new")]
     assert json.loads((tmp_path / "t.json").read_text())["rows"] == table.rows
@@ -148,3 +149,48 @@ def test_an_existing_table_is_an_input_error_naming_both_options(tmp_path):
     ResultTable(tmp_path, "t", ("k",)).add({"k": 0})
     with pytest.raises(InputError, match="--resume.*--overwrite"):
         ResultTable(tmp_path, "t", ("k",))
+
+
+def test_run_all_in_worker_processes_gives_the_same_rows(tmp_path):
+    from dsmpepc_nlp.bench.runner import run_all
+
+    tasks = [((("k", k), ("square", k * k)),) for k in range(4)]
+    inline, pooled = ResultTable(tmp_path / "a", "t", ("k",)), ResultTable(tmp_path / "b", "t",
+                                                                            ("k",))
+    run_all(dict, tasks, inline, label="t", workers=1, progress=None)
+    assert run_all(dict, tasks, pooled, label="t", workers=2, progress=None) == 4
+    assert sorted(r["k"] for r in pooled.rows) == [0, 1, 2, 3]
+    assert sorted(pooled.rows, key=lambda r: r["k"]) == inline.rows
+
+
+def test_outcome_rates_and_mean():
+    from dsmpepc_nlp.bench.runner import mean, outcome_rates
+
+    rates = outcome_rates(["success", "success", "collision", "error"])
+    assert rates == {"success_rate": 0.5, "collision_rate": 0.25, "timeout_rate": 0.0,
+                     "deadlock_rate": 0.0, "error_rate": 0.25}
+    assert all(v != v for v in outcome_rates([]).values())  # NaN without rows
+    rows = [{"t": 1.0, "o": "a"}, {"t": None, "o": "a"}, {"t": 3.0, "o": "b"}]
+    assert mean(rows, "t") == 2.0 and mean(rows, "t", lambda r: r["o"] == "b") == 3.0
+    assert mean(rows, "t", lambda r: False) != mean(rows, "t", lambda r: False)  # NaN
+
+
+class _Terminal(io.StringIO):
+    def isatty(self):
+        return True
+
+
+def test_progress_shows_a_bar_on_a_terminal_and_nothing_elsewhere():
+    from dsmpepc_nlp.core.progress import EpisodeProgress, bar
+
+    for stream, shown in ((_Terminal(), True), (io.StringIO(), False)):
+        progress = bar(3, "runs", stream=stream)
+        for _ in range(3):
+            progress.update(1)
+        progress.close()
+        assert ("3/3" in stream.getvalue()) is shown
+    quiet = io.StringIO()
+    episode = EpisodeProgress("tiny", stream=quiet)
+    episode(0, 0.2, 5, 1)
+    episode.done("success")
+    assert quiet.getvalue().startswith("[tiny] success (") and quiet.getvalue().count("\n") == 1

@@ -210,3 +210,31 @@ def test_load_rejects_other_files(tmp_path):
     (tmp_path / "y.npz").write_text("hello")
     with pytest.raises(ValueError, match="cannot read"):
         Episode.load(tmp_path / "y.npz")
+
+
+def test_a_planner_factory_drives_the_robots_without_patching_anything():
+    from dsmpepc_nlp.solve.planner import Planner
+
+    built = []
+
+    class Recording:
+        """Wraps the real planner and counts its cycles."""
+
+        def __init__(self, config, solver):
+            built.append(config.robot)
+            self.inner, self.calls = Planner(config, solver), 0
+
+        def plan(self, *args, **kwargs):
+            self.calls += 1
+            return self.inner.plan(*args, **kwargs)
+
+    body = RobotConfig(footprint=((0.0, 0.0, 0.25),))
+    agents = (Agent("a", RobotState(0.0, 0.0, 0.0), FixedGoal((2.0, 0.0))),
+              Agent("b", RobotState(0.0, 3.0, 0.0), FixedGoal((2.0, 3.0)), body))
+    scenario = Scenario("two", agents, duration=2.0)
+    ep = run(scenario, planner_factory=Recording)
+    assert built == [CONFIG.robot, body]       # one planner per robot, with that robot's body
+    default = run(scenario)
+    assert np.array_equal(ep.states, default.states) and ep.outcomes == default.outcomes
+    with pytest.raises(ZeroDivisionError):     # the factory is really what gets called
+        run(scenario, planner_factory=lambda config, solver: 1 / 0)

@@ -325,11 +325,11 @@ def summarise(rows) -> dict:
 
 
 def run_benchmark(settings: BarnSettings, worlds, out_dir, *, workers: int | None = None,
-                  resume=False, overwrite=False, progress=None) -> tuple[list, dict]:
+                  resume=False, overwrite=False, progress=True) -> tuple[list, dict]:
     """Run ``worlds`` into ``out_dir/barn.{csv,json}`` (+ ``barn.png``); rows and summary.
 
-    Worlds already in the table are skipped when ``resume`` is True. ``progress``: the stream
-    for the status line and bar (None: stderr; False: silent).
+    Worlds already in the table are skipped when ``resume`` is True. ``progress``: where the
+    status line and bar go (True: stderr, a stream, or None: nowhere).
     """
     table = ResultTable(out_dir, "barn", ("world", "variant", "solver"), settings.meta(),
                         resume=resume, overwrite=overwrite)
@@ -339,7 +339,7 @@ def run_benchmark(settings: BarnSettings, worlds, out_dir, *, workers: int | Non
             raise InputError(f"BARN data {settings.data!r}: no grid_files/grid_{w}.npy")
     run_all(run_world, [(w, settings) for w in worlds], table, label="barn",
             key=lambda task: (task[0], settings.variant, settings.solver), workers=workers,
-            stream=progress, describe=lambda row: f"world {row['world']}: {row['outcome']}")
+            progress=progress, describe=lambda row: f"world {row['world']}: {row['outcome']}")
     rows = [r for r in table.rows if r["variant"] == settings.variant
             and r["solver"] == settings.solver and r["world"] in set(worlds)]
     rows.sort(key=lambda r: r["world"])

@@ -309,12 +309,12 @@ def summarise(rows) -> dict:
 
 
 def run_benchmark(settings: CrowdSettings, variants, episodes: int, seed: int, out_dir, *,
-                  workers=None, resume=False, overwrite=False, progress=None) -> dict:
+                  workers=None, resume=False, overwrite=False, progress=True) -> dict:
     """Every (variant, episode) into ``out_dir/crowd.{json,csv}``; the summary.
 
     The summary has the first variant's figures at the top level (``episodes``,
     ``success_rate``, ``collision_rate``, ...) and every variant under ``variants``.
-    ``progress``: the stream for the status line and bar (None: stderr; False: silent).
+    ``progress``: where the status line and bar go (True: stderr, a stream, or None: nowhere).
     """
     check_variants(variants)
     scene_files(settings.data, settings.scene)  # fail early on a bad scene
@@ -322,7 +322,7 @@ def run_benchmark(settings: CrowdSettings, variants, episodes: int, seed: int, o
                         resume=resume, overwrite=overwrite)
     run_all(run_episode, [(settings, v, e, seed) for v in variants for e in range(episodes)],
             table, label="crowd", key=lambda task: (task[1], task[2], task[3]),
-            workers=workers, stream=progress,
+            workers=workers, progress=progress,
             describe=lambda row: f"{row['variant']} episode {row['episode']}: {row['outcome']}")
     per_variant = {}
     for v in variants:

@@ -15,6 +15,7 @@ import io
 import math
 import multiprocessing
 import os
+import sys
 
 import numpy as np
 
@@ -58,7 +59,7 @@ def _dask(run, tasks, scheduler):
 
 
 def run_all(run, tasks, table, *, label: str, key=None, workers=None, scheduler=None,
-            stream=None, describe=None) -> int:
+            progress=True, describe=None) -> int:
     """Run ``run(*task)`` for every task whose key is not in ``table``; each row into ``table``.
 
     Parameters
@@ -79,8 +80,9 @@ def run_all(run, tasks, table, *, label: str, key=None, workers=None, scheduler=
         Worker processes (default: cores); 1 runs inline.
     scheduler : str, optional
         Address of a Dask scheduler to run on instead of local processes.
-    stream : file, optional
-        Where the status line and bar go (stderr); None writes to stderr, False nowhere.
+    progress : True, file or None
+        Where the status line and the bar go: True for stderr, a stream, or None (or False)
+        for nowhere. The bar itself shows only on a terminal.
     describe : callable, optional
         ``describe(row)``: a short note shown on the bar after each run.
 
@@ -92,22 +94,23 @@ def run_all(run, tasks, table, *, label: str, key=None, workers=None, scheduler=
     todo = [t for t in tasks if key is None or not table.done(key(t))]
     n_workers = worker_count(workers, len(todo))
     where = f"Dask at {scheduler}" if scheduler else f"{n_workers} process(es)"
-    if stream is not False:
+    stream = sys.stderr if progress is True else progress or None
+    if stream is not None:
         say(f"{label}: {len(tasks)} runs, {len(tasks) - len(todo)} already done, "
             f"{len(todo)} to run on {where}", stream)
     if not todo:
         table.write()  # a finished table still gets both files, consistent with each other
         return 0
     rows = _dask(run, todo, scheduler) if scheduler else _processes(run, todo, n_workers)
-    progress = bar(len(todo), label, stream=io.StringIO() if stream is False else stream)
+    shown = bar(len(todo), label, stream=io.StringIO() if stream is None else stream)
     try:
         for row in rows:
             table.add(row)
             if describe is not None:
-                progress.set_postfix_str(describe(row)[:40], refresh=False)
-            progress.update(1)
+                shown.set_postfix_str(describe(row)[:40], refresh=False)
+            shown.update(1)
     finally:
-        progress.close()
+        shown.close()
     return len(todo)
 
 

@@ -113,9 +113,9 @@ def _describe(row) -> str:
 
 def run_sweep(params: dict, scenarios, seeds, settings: SweepSettings, out_dir, *,
               workers=None, scheduler=None, resume=False, overwrite=False,
-              progress=None) -> dict:
-    """Run the grid into ``out_dir``; a summary. ``progress``: a stream (None: stderr; False:
-    silent)."""
+              progress=True) -> dict:
+    """Run the grid into ``out_dir``; a summary. ``progress``: True (stderr), a
+    stream or None (nowhere)."""
     if not params:
         raise InputError("--param: give at least one NAME=V1,V2,...")
     if not scenarios:
@@ -129,7 +129,7 @@ def run_sweep(params: dict, scenarios, seeds, settings: SweepSettings, out_dir, 
     run_all(run_one, [(r, settings) for r in runs], table, label="sweep",
             key=lambda task: (_key_text(task[0]["params"]), task[0]["scenario"],
                               task[0]["seed"]),
-            workers=workers, scheduler=scheduler, stream=progress, describe=_describe)
+            workers=workers, scheduler=scheduler, progress=progress, describe=_describe)
     keys = {(_key_text(r["params"]), r["scenario"], r["seed"]) for r in runs}
     rows = [r for r in table.rows if (r["key"], r["scenario"], r["seed"]) in keys]
     figures = plot_heatmaps(rows, list(params), Path(out_dir))
@@ -171,12 +171,12 @@ def plot_heatmaps(rows, names, out_dir) -> list:
 
 def run_scenarios(variants, scenarios, seeds, settings: SweepSettings, out_dir, *,
                   workers=None, scheduler=None, resume=False, overwrite=False,
-                  progress=None) -> dict:
+                  progress=True) -> dict:
     """Planner variants (``orca`` included) side by side on scenarios x seeds.
 
     The table is ``scenarios.{json,csv}`` keyed by (variant, scenario, seed); the summary has,
-    per variant and scenario, the rates over seeds and robots. ``progress``: a stream (None:
-    stderr; False: silent).
+    per variant and scenario, the rates over seeds and robots. ``progress``: True (stderr), a
+    stream or None (nowhere).
     """
     check_variants(variants)
     for name in scenarios:
@@ -189,7 +189,7 @@ def run_scenarios(variants, scenarios, seeds, settings: SweepSettings, out_dir, 
             for v in variants for s in scenarios for k in seeds]
     run_all(run_one, [(r, settings) for r in runs], table, label="scenarios",
             key=lambda task: (task[0]["variant"], task[0]["scenario"], task[0]["seed"]),
-            workers=workers, scheduler=scheduler, stream=progress, describe=_describe)
+            workers=workers, scheduler=scheduler, progress=progress, describe=_describe)
     summary: dict = {"runs": len(runs), "variants": {}}
     wanted = set(int(k) for k in seeds)
     for v in variants:
