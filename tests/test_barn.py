@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.bench import barn
 from dsmpepc_nlp import bench_cli
+from dsmpepc_nlp.bench import barn
 
 
 def write_world(folder, index, extra=((10, 5),), with_metrics=True):

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
+from dsmpepc_nlp.core.world import OccupancyGrid
 from dsmpepc_nlp.sim.metrics import (
     discomfort,
     episode_metrics,
@@ -22,7 +23,6 @@ from dsmpepc_nlp.sim.metrics import (
     time_to_goal,
 )
 from dsmpepc_nlp.sim.simulate import Agent, FixedGoal, Pedestrian, Scenario, simulate
-from dsmpepc_nlp.core.world import OccupancyGrid
 
 
 def straight_episode(outcome="success", n=11, dt=0.2):

@@ -4,11 +4,11 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.sim.panels import cost_panels
-from dsmpepc_nlp.viz import plots
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
-from dsmpepc_nlp.sim.simulate import Agent, FixedGoal, Pedestrian, Scenario, simulate
 from dsmpepc_nlp.core.world import OccupancyGrid, World
+from dsmpepc_nlp.sim.panels import cost_panels
+from dsmpepc_nlp.sim.simulate import Agent, FixedGoal, Pedestrian, Scenario, simulate
+from dsmpepc_nlp.viz import plots
 
 
 @pytest.fixture(scope="module")

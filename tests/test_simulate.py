@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotConfig, RobotState, SolverConfig
+from dsmpepc_nlp.core.world import OccupancyGrid
 from dsmpepc_nlp.sim.simulate import (
     Agent,
     Episode,
@@ -16,7 +17,6 @@ from dsmpepc_nlp.sim.simulate import (
     Scenario,
     simulate,
 )
-from dsmpepc_nlp.core.world import OccupancyGrid
 
 SOLVER = SolverConfig(method="sampling", n_samples=256)
 CONFIG = PlannerConfig.variant("ds-mpepc")
