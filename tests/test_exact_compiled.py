@@ -136,13 +136,14 @@ def test_min_distance_reaches_culled_objects():
 
 
 def test_out_of_box_speed_runs_the_reference():
-    """A v_max above v_limit breaks the reach bound the culling rests on: numpy runs."""
+    """A v_max outside [0, v_limit] breaks the reach bound the culling rests on: numpy runs."""
     config = PlannerConfig()
     world = World(obstacles=[DynamicObstacle.pedestrian((9.0, 0.0), (-1.0, 0.0))])
     cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0), world, (9.0, 0.0), config)
-    z = np.array([[8.0, 0.0, 0.0, 3.0 * config.robot.v_limit]])
-    assert not exact.inside_reach(z, cycle)
-    assert_same(evaluate_batch(z, cycle), evaluate_batch(z, cycle, compiled=False))
+    for v_max in (3.0 * config.robot.v_limit, -1.0):
+        z = np.array([[8.0, 0.0, 0.0, v_max]])
+        assert not exact.inside_reach(z, cycle)
+        assert_same(evaluate_batch(z, cycle), evaluate_batch(z, cycle, compiled=False))
 
 
 def test_fallback_warns_once_and_agrees(tmp_path):

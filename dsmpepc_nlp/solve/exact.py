@@ -19,7 +19,8 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import importlib
-import math
+import os
+import threading
 import time
 from pathlib import Path
 
@@ -33,6 +34,7 @@ from .cache import cache_dir, compile_enabled, warn_once
 from .cycle import Cycle
 
 _KERNEL_FILE = Path(__file__).with_name("_exact_kernel.py")
+_LOCK = threading.Lock()
 _STATE = {"kernel": None, "failed": False, "numpy_only": False}
 
 
@@ -67,6 +69,11 @@ def kernel():
     except ImportError:
         _STATE["failed"] = True
         return kernel()
+    # numba's simple thread pool unless the user chose one: OpenMP's wake-up and barrier cost
+    # milliseconds per call on a busy machine, which small batches (a plan's verdicts) cannot
+    # afford. Set in the environment too: numba re-reads its configuration from there.
+    os.environ.setdefault("NUMBA_THREADING_LAYER", "workqueue")
+    numba.config.THREADING_LAYER = os.environ["NUMBA_THREADING_LAYER"]
     previous = numba.config.CACHE_DIR
     numba.config.CACHE_DIR = str(kernel_cache_dir())
     try:  # numba picks the cache folder when the kernel is decorated, i.e. on import
@@ -126,16 +133,20 @@ def evaluate_compiled(z: np.ndarray, cycle, module) -> tuple[Trajectory, CostBre
 
 def _run(module, cycle, z, poses, v, omega, target, survival, out, given):
     k = cycle.kernel_arrays
-    module.exact_costs(z, cycle.parameters, k["footprint"], k["sdf"], k["nf"], k["predicted"],
-                       k["radii"], k["velocities"], k["starts"], k["culled_predicted"],
-                       k["culled_radii"], k["end_centers"], k["end_radii"], k["end_velocities"],
-                       poses, v, omega, target, survival, out, given)
+    with _LOCK:  # the thread pool takes one launch at a time; threads of one process queue here
+        module.exact_costs(z, cycle.parameters, k["footprint"], k["sdf"], k["nf"],
+                           k["predicted"],
+                           k["radii"], k["velocities"], k["starts"], k["culled_predicted"],
+                           k["culled_radii"], k["end_centers"], k["end_radii"],
+                           k["end_velocities"], poses, v, omega, target, survival, out, given)
 
 
 def inside_reach(z: np.ndarray, cycle) -> bool:
-    """True when no row's v_max exceeds v_limit (the culling of the cycle assumes it)."""
-    return bool(np.all(z[:, 3] <= cycle.config.robot.v_limit)) and math.isfinite(
-        float(np.sum(z)))
+    """True when every row is finite with ``0 <= v_max <= v_limit``: the robot's speed then
+    never exceeds v_limit, which the cycle's culling of far objects rests on."""
+    v_max = z[:, 3]
+    return bool(np.all(np.isfinite(z)) and np.all((v_max >= 0.0)
+                                                  & (v_max <= cycle.config.robot.v_limit)))
 
 
 def build() -> dict:
