@@ -446,12 +446,15 @@ class SolverConfig:
     pair_budget: int = 2_000_000
     """Largest (trajectory, pose, footprint circle, obstacle circle) count the numpy exact cost
     handles in one chunk: keeps its temporaries near 100 MB however crowded the world."""
+    parallel_rows: int = 512
+    """Smallest batch the compiled exact evaluator spreads over every core; smaller batches run
+    on the calling thread, where waking the thread pool would cost more than it saves."""
 
     def __post_init__(self):
         if self.method not in SOLVER_METHODS:
             _fail("SolverConfig", "method", self.method, f"one of {', '.join(SOLVER_METHODS)}")
         for name, low in (("max_iter", 1), ("n_spread", 0), ("n_samples", 1), ("seed", 0),
-                          ("pair_budget", 1)):
+                          ("pair_budget", 1), ("parallel_rows", 1)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
                 _fail("SolverConfig", name, value, f"an integer >= {low}")

@@ -452,41 +452,60 @@ def _assemble(p, nf, poses, vs, omegas, survival, terminal_inv, scratch, out):
     out[8] = terminal_inv
 
 
+@jit
+def _rows(first, stride, z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred,
+          culled_radii, end_centres, end_radii, end_velocities, poses, vs, omegas, targets,
+          survival, out, given):
+    """Rows ``first, first + stride, ...`` of :func:`exact_costs`."""
+    n, n_steps = z.shape[0], vs.shape[1]
+    scratch = np.empty((3, n_steps))
+    pts = np.empty((fp.shape[0], 2))
+    for i in range(first, n, stride):
+        fragile = False
+        if not given:
+            fragile = _rollout(z[i], p, n_steps, poses[i], vs[i], omegas[i], targets[i])
+        nearest = _survival(p, fp, sdf, pred, radii, velocities, starts, poses[i], vs[i],
+                            survival[i], pts)
+        if culled_radii.shape[0] and not nearest <= p[CULL_FLOOR]:
+            nearest = min(nearest, _culled_distance(fp, poses[i], culled_pred, culled_radii,
+                                                    pts))
+        end = poses[i, n_steps]
+        terminal_inv = 0.0
+        if p[TERMINAL] != 0.0:
+            terminal_inv = _terminal_inverse_ttc(p, fp, sdf, end_centres, end_radii,
+                                                 end_velocities, end[0], end[1], end[2], pts)
+        _assemble(p, nf, poses[i], vs[i], omegas[i], survival[i], terminal_inv, scratch, out[i])
+        out[i, 6] = nearest
+        out[i, 9] = 1.0 if fragile else 0.0
+
+
 @numba.njit(parallel=True, cache=True, fastmath=False, error_model="numpy")
 def exact_costs(z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred, culled_radii,
                 end_centres, end_radii, end_velocities, poses, vs, omegas, targets, survival,
                 out, given):
-    """Roll out and cost every row of ``z`` (n, 4); results go into the output arrays.
+    """Roll out and cost every row of ``z`` (n, 4) on every core; results go into the outputs.
 
     With ``given`` the rollouts already in ``poses``, ``vs``, ``omegas`` are costed instead.
 
-    ``p`` is the parameter vector (:data:`P`); ``pred``/``radii``/``velocities`` the kept
-    circles (objects contiguous, object ``o`` is ``starts[o]:starts[o+1]``); ``culled_*`` the
-    circles beyond reach (for the smallest distance only); ``end_*`` every circle at the
-    horizon's end (terminal time to collision). Outputs: ``poses`` (n, N+1, 3), ``vs``,
-    ``omegas`` (n, N), ``targets`` (n, 3), ``survival`` (n, N+1), ``out`` (n, len(OUT)).
+    ``p`` is the parameter vector; ``pred``/``radii``/``velocities`` the kept circles (objects
+    contiguous, object ``o`` is ``starts[o]:starts[o+1]``); ``culled_*`` the circles beyond
+    reach (for the smallest distance only); ``end_*`` every circle at the horizon's end
+    (terminal time to collision). Outputs: ``poses`` (n, N+1, 3), ``vs``, ``omegas`` (n, N),
+    ``targets`` (n, 3), ``survival`` (n, N+1), ``out`` (n, len(OUT)).
     """
-    n, n_steps = z.shape[0], vs.shape[1]
-    blocks = min(n, 256)
+    blocks = min(z.shape[0], 256)
     for b in prange(blocks):
-        scratch = np.empty((3, n_steps))
-        pts = np.empty((fp.shape[0], 2))
-        for i in range(b, n, blocks):
-            fragile = False
-            if not given:
-                fragile = _rollout(z[i], p, n_steps, poses[i], vs[i], omegas[i], targets[i])
-            nearest = _survival(p, fp, sdf, pred, radii, velocities, starts, poses[i], vs[i],
-                                survival[i], pts)
-            if culled_radii.shape[0] and not nearest <= p[CULL_FLOOR]:
-                nearest = min(nearest, _culled_distance(fp, poses[i], culled_pred,
-                                                        culled_radii, pts))
-            end = poses[i, n_steps]
-            terminal_inv = 0.0
-            if p[TERMINAL] != 0.0:
-                terminal_inv = _terminal_inverse_ttc(p, fp, sdf, end_centres, end_radii,
-                                                     end_velocities, end[0], end[1], end[2],
-                                                     pts)
-            _assemble(p, nf, poses[i], vs[i], omegas[i], survival[i], terminal_inv, scratch,
-                      out[i])
-            out[i, 6] = nearest
-            out[i, 9] = 1.0 if fragile else 0.0
+        _rows(b, blocks, z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred,
+              culled_radii, end_centres, end_radii, end_velocities, poses, vs, omegas, targets,
+              survival, out, given)
+
+
+@numba.njit(cache=True, fastmath=False, error_model="numpy")
+def exact_costs_serial(z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred,
+                       culled_radii, end_centres, end_radii, end_velocities, poses, vs, omegas,
+                       targets, survival, out, given):
+    """:func:`exact_costs` on the calling thread: for small batches, where waking the thread
+    pool costs more than it saves."""
+    _rows(0, 1, z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred, culled_radii,
+          end_centres, end_radii, end_velocities, poses, vs, omegas, targets, survival, out,
+          given)

@@ -95,8 +95,12 @@ def numpy_only():
         _STATE["numpy_only"] = previous
 
 
-def evaluate_compiled(z: np.ndarray, cycle, module) -> tuple[Trajectory, CostBreakdown]:
+def evaluate_compiled(z: np.ndarray, cycle, module,
+                      parallel_rows: int = 512) -> tuple[Trajectory, CostBreakdown]:
     """Roll out and cost ``z`` (n, 4) with the compiled kernel ``module`` from ``cycle``.
+
+    Batches of at least ``parallel_rows`` rows use every core, smaller ones the calling thread
+    (:attr:`~dsmpepc_nlp.core.config.SolverConfig.parallel_rows`).
 
     Rollouts the kernel marks fragile (passing a discontinuity of the law, see
     ``_exact_kernel.FRAGILE_ANGLE``) are redone with the numpy reference and costed again, so
@@ -110,14 +114,15 @@ def evaluate_compiled(z: np.ndarray, cycle, module) -> tuple[Trajectory, CostBre
     target = np.empty((n, 3))
     survival = np.empty((n, n_steps + 1))
     out = np.empty((n, len(module.OUT)))
-    _run(module, cycle, z, poses, v, omega, target, survival, out, False)
+    _run(module, cycle, z, poses, v, omega, target, survival, out, False, parallel_rows)
     fragile = np.flatnonzero(out[:, module.OUT.index("fragile")])
     if fragile.size:
         again = rollout(z[fragile], cycle.state, cycle.config)
         parts = [np.array(a, order="C") for a in (again.poses, again.v, again.omega)]
         part_survival = np.empty((fragile.size, n_steps + 1))
         part_out = np.empty((fragile.size, out.shape[1]))
-        _run(module, cycle, z[fragile], *parts, again.target, part_survival, part_out, True)
+        _run(module, cycle, z[fragile], *parts, again.target, part_survival, part_out, True,
+             parallel_rows)
         poses[fragile], v[fragile], omega[fragile] = parts
         target[fragile], survival[fragile], out[fragile] = again.target, part_survival, part_out
     columns = dict(zip(module.OUT, out.T))
@@ -131,10 +136,11 @@ def evaluate_compiled(z: np.ndarray, cycle, module) -> tuple[Trajectory, CostBre
     return Trajectory(z, poses, v, omega, target), costs
 
 
-def _run(module, cycle, z, poses, v, omega, target, survival, out, given):
+def _run(module, cycle, z, poses, v, omega, target, survival, out, given, parallel_rows):
     k = cycle.kernel_arrays
+    run = module.exact_costs if len(z) >= parallel_rows else module.exact_costs_serial
     with _LOCK:  # the thread pool takes one launch at a time; threads of one process queue here
-        module.exact_costs(z, cycle.parameters, k["footprint"], k["sdf"], k["nf"],
+        run(z, cycle.parameters, k["footprint"], k["sdf"], k["nf"],
                            k["predicted"],
                            k["radii"], k["velocities"], k["starts"], k["culled_predicted"],
                            k["culled_radii"], k["end_centers"], k["end_radii"],
@@ -170,7 +176,8 @@ def build() -> dict:
         cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0), world, (3.0, 0.0),
                               PlannerConfig.variant(name))
         if module is not None:
-            evaluate_compiled(z, cycle, module)
+            evaluate_compiled(z, cycle, module, parallel_rows=1)       # the parallel kernel
+            evaluate_compiled(z, cycle, module, parallel_rows=len(z) + 1)  # and the serial one
     return {"compiled": module is not None, "seconds": time.perf_counter() - started,
             "cache": str(kernel_cache_dir()) if module is not None else None,
             "configurations": list(VARIANTS)}

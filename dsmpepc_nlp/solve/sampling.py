@@ -87,20 +87,22 @@ PAIR_BUDGET = SolverConfig.pair_budget
 
 
 def evaluate_batch(z, cycle: Cycle, compiled: bool | None = None,
-                   pair_budget: int = PAIR_BUDGET) -> Evaluation:
+                   pair_budget: int = PAIR_BUDGET,
+                   parallel_rows: int = SolverConfig.parallel_rows) -> Evaluation:
     """Roll out and cost every row of ``z`` (n, 4) exactly.
 
     ``cycle`` (:class:`~dsmpepc_nlp.solve.cycle.Cycle`) carries the state, world, goal and
     configuration, prepared once per plan. ``compiled`` (default: when available) runs the
     compiled kernel (:mod:`~dsmpepc_nlp.solve.exact`) on the cycle's arrays; False runs the
     numpy reference in chunks of at most ``pair_budget`` (trajectory, pose, footprint circle,
-    obstacle circle) tuples (:attr:`SolverConfig.pair_budget`). Both give the same
+    obstacle circle) tuples (:attr:`SolverConfig.pair_budget`); the compiled kernel uses every
+    core from ``parallel_rows`` rows on (:attr:`SolverConfig.parallel_rows`). Both give the same
     :class:`Evaluation` (to 1e-9, held by tests).
     """
     z = np.atleast_2d(np.asarray(z, dtype=float))
     module = exact.kernel() if compiled is not False else None
     if module is not None and z.ndim == 2 and z.shape[1:] == (4,) and exact.inside_reach(z, cycle):
-        trajectories, costs = exact.evaluate_compiled(z, cycle, module)
+        trajectories, costs = exact.evaluate_compiled(z, cycle, module, parallel_rows)
         return Evaluation(z, trajectories, costs)
     return _evaluate_numpy(z, cycle, pair_budget)
 
@@ -137,11 +139,11 @@ class SamplingPlanner:
     def __init__(self, config: PlannerConfig, solver: SolverConfig | None = None):
         solver = SolverConfig.sampling() if solver is None else solver
         self.config = config
-        self.pair_budget = solver.pair_budget
+        self.pair_budget, self.parallel_rows = solver.pair_budget, solver.parallel_rows
         self.samples = box_samples(config, solver.n_samples, solver.seed)
 
     def search(self, cycle: Cycle, starts: dict | None = None) -> Evaluation:
         """Evaluate the sample set and ``starts`` (a dict of named z); see :class:`Evaluation`."""
         extra = np.array(list(starts.values())) if starts else np.zeros((0, 4))
         return evaluate_batch(np.vstack([extra, self.samples]), cycle,
-                              pair_budget=self.pair_budget)
+                              pair_budget=self.pair_budget, parallel_rows=self.parallel_rows)
