@@ -140,6 +140,17 @@ class Planner:
             Dock at a fixed goal within ``config.docking.radius`` (False for moving goals).
         sample : bool
             Also run the sampler when the NLP succeeds (for cross-checks and plots).
+
+        Returns
+        -------
+        Plan
+            Never NaN. A stage that raises (starts, cycle, docking, NLP, verdicts, sampler) is
+            named in ``message`` and the next one takes over, down to the stop trajectory.
+
+        Raises
+        ------
+        InputError
+            Only for a ``goal`` that is not a finite (x, y) pair.
         """
         started = time.perf_counter()
         try:
@@ -148,29 +159,31 @@ class Planner:
             raise InputError(f"goal = {goal!r}: must be a finite (x, y) pair") from None
         if goal.shape != (2,) or not np.all(np.isfinite(goal)):
             raise InputError(f"goal = {goal!r}: must be a finite (x, y) pair")
-        starts = structured_starts(state, goal, self.config, self._previous_target)
-        cycle = Cycle.prepare(state, world, goal, self.config)
-        plan, evaluated, records, trouble = None, None, (), ""
-        if dock:
-            plan = self._dock(cycle)
-        if plan is None and self.nlp is not None:
-            try:
-                records = self._verify(self.nlp.solve(cycle, starts), cycle)
-                if sample:
-                    evaluated = self.sampler.search(cycle, starts)
-                plan = self._choose_nlp(records, cycle)
-            except Exception as error:  # noqa: BLE001 - a solver crash must not stop planning
-                trouble = f"the NLP raised {type(error).__name__}: {error}; "
+        # Every stage runs inside the fallback chain: a stage that raises is reported in the
+        # message and the next one takes over; the stop trajectory is the last resort.
+        trouble = []
+        starts = _attempt(trouble, "the starts", structured_starts, state, goal, self.config,
+                          self._previous_target) or {}
+        cycle = _attempt(trouble, "the cycle", Cycle.prepare, state, world, goal, self.config)
+        plan, evaluated, records = None, None, ()
+        if dock and cycle is not None:
+            plan = _attempt(trouble, "docking", self._dock, cycle)
+        if plan is None and self.nlp is not None and cycle is not None:
+            records = _attempt(trouble, "the NLP", self._solve_nlp, cycle, starts) or ()
+            plan = _attempt(trouble, "the NLP's verdict", self._choose_nlp, records, cycle)
+            if sample:
+                evaluated = _attempt(trouble, "the sampler", self.sampler.search, cycle, starts)
+        if plan is None and cycle is not None:
+            evaluated = evaluated or _attempt(trouble, "the sampler", self.sampler.search,
+                                              cycle, starts)
+            if evaluated is not None:
+                plan = _attempt(trouble, "the sampled verdict", self._from_evaluation,
+                                evaluated, state, fallback=self.nlp is not None, records=records)
         if plan is None:
-            try:
-                evaluated = evaluated or self.sampler.search(cycle, starts)
-                plan = self._from_evaluation(evaluated, state, fallback=self.nlp is not None,
-                                             records=records)
-            except Exception as error:  # noqa: BLE001 - the last resort is to stop, not crash
-                trouble += f"the sampler raised {type(error).__name__}: {error}; "
-                plan = self._stop(state, records)
+            plan = self._stop(state, records)
         if trouble:
-            plan = _replace(plan, message=trouble + plan.message, success=False)
+            plan = _replace(plan, message="; ".join(trouble) + "; " + plan.message,
+                            success=False)
         plan = _replace(plan, wall_time=time.perf_counter() - started, evaluated=evaluated)
         self._previous_target = (plan.trajectory.target, float(plan.x[3]))
         return plan
@@ -190,6 +203,10 @@ class Planner:
         if not ev.costs.survivability[0, -1] > docking.min_survival:
             return None
         return self._plan_from(ev, 0, "docked", True, "docked at the goal", 0, ())
+
+    def _solve_nlp(self, cycle: Cycle, starts) -> tuple:
+        """Every NLP start's record with its exact cost."""
+        return self._verify(self.nlp.solve(cycle, starts), cycle)
 
     def _verify(self, original, cycle: Cycle) -> tuple:
         """Exact cost of every start's result: the verdict on the NLP.
@@ -231,9 +248,16 @@ class Planner:
         """Nothing finite: the stop trajectory (v_max = 0), finite by construction.
 
         Its cost is reported as ``inf``: nothing could be measured, and a plan is never NaN.
+        Should even the rollout fail, the robot holds its pose over the horizon.
         """
         z = clip_to_bounds(np.array([1.0, 0.0, 0.0, 0.0]), self.config)
-        trajectory = rollout(z, state, self.config)
+        n_steps = self.config.horizon.n_steps
+        try:
+            trajectory = rollout(z, state, self.config)
+        except Exception:  # noqa: BLE001 - the last resort must not raise
+            pose = np.array(state.pose, dtype=float)
+            trajectory = Trajectory(z, np.tile(pose, (n_steps + 1, 1)), np.zeros(n_steps),
+                                    np.zeros(n_steps), pose)
         inf = np.full(1, math.inf)
         survival = np.zeros((1, trajectory.poses.shape[0]))
         cost = CostBreakdown(inf, {name: np.zeros(1) for name in TERM_NAMES}, survival,
@@ -256,6 +280,15 @@ def _control(trajectory: Trajectory, config: PlannerConfig) -> tuple:
         return (0.0, 0.0)
     return (min(max(v, 0.0), robot.v_limit),
             min(max(omega, -robot.omega_limit), robot.omega_limit))
+
+
+def _attempt(trouble, stage, function, *args, **kwargs):
+    """``function(*args, **kwargs)``, or None with a line in ``trouble`` when it raises."""
+    try:
+        return function(*args, **kwargs)
+    except Exception as error:  # noqa: BLE001 - a failing stage must not stop planning
+        trouble.append(f"{stage} raised {type(error).__name__}: {error}")
+        return None
 
 
 def _replace(obj, **changes):
