@@ -1,12 +1,14 @@
 """Scenario files: the built-ins load, and every schema violation names file, field and rule."""
 
 import copy
+import dataclasses
 
 import numpy as np
 import pytest
 import yaml
 
 from dsmpepc_nlp.core.errors import InputError
+from dsmpepc_nlp.core.world import OccupancyGrid
 from dsmpepc_nlp.sim.scenario import (
     ScenarioError,
     builtin_names,
@@ -14,7 +16,6 @@ from dsmpepc_nlp.sim.scenario import (
     parse_scenario,
 )
 from dsmpepc_nlp.sim.simulate import FixedGoal, FollowGoal
-from dsmpepc_nlp.core.world import OccupancyGrid
 
 BUILTINS = ["circle-10", "circle-4", "hall", "l-corridor", "narrow-corridor", "t-corridor"]
 
@@ -145,3 +146,85 @@ def test_a_start_or_goal_in_an_obstacle_is_an_error(tmp_path, robot, field):
     with pytest.raises(ScenarioError, match="must be in free space") as error:
         load_scenario(tmp_path / "walled.yaml")
     assert "walled.yaml" in str(error.value) and f"{field}:" in str(error.value)
+
+
+# ---------------------------------------------------------------------------------------------
+# plausible magnitudes, overlapping starts, start noise, messages (issue 14)
+
+HUGE = 1.0e308
+
+IMPLAUSIBLE = [
+    (lambda d: d.update(duration=HUGE), "duration", "<= 86400"),
+    (lambda d: d.update(start_noise=HUGE), "start_noise", "<= 100"),
+    (lambda d: d["robots"][0].update(start=[HUGE, 1.0, 0.0]), "robots[0].start[0]",
+     "within [-1e+06, 1e+06]"),
+    (lambda d: d["robots"][0]["goal"].update(position=[0.0, -2.0e6]),
+     "robots[0].goal.position[1]", "within [-1e+06, 1e+06]"),
+    (lambda d: d["robots"][0].update(v_limit=HUGE), "robots[0].v_limit", "<= 100"),
+    (lambda d: d["robots"][0]["footprint"][1].__setitem__(2, HUGE),
+     "robots[0].footprint[1][2]", "within [-100, 100]"),
+    (lambda d: d["pedestrians"][1].update(velocity=[HUGE, 0.0]), "pedestrians[1].velocity[0]",
+     "within [-100, 100]"),
+    (lambda d: d["pedestrians"][0].update(radius=HUGE), "pedestrians[0].radius", "<= 100"),
+    (lambda d: d["pedestrians"][0]["waypoints"].append([1.0e6, 3.0, 3.0]),
+     "pedestrians[0].waypoints[2][0]", "within [-86400, 86400]"),
+    (lambda d: d["parked_robots"][0].update(pose=[1.0, HUGE, 0.0]), "parked_robots[0].pose[1]",
+     "within"),
+    (lambda d: d["robots"].append({"name": "twin", "start": [0.0, 0.0, 1.0],
+                                   "goal": {"position": [-2.0, 0.0]}}),
+     "robots[1].start", "overlaps robots[0] ('a') at t = 0"),
+    (lambda d: d["robots"][0].update(start=[1.2, 1.0, 0.0]), "robots[0].start",
+     "overlaps parked_robots[0]"),
+    (lambda d: d["robots"][0].update(start=[3.0, 0.3, 0.0]), "robots[0].start",
+     "overlaps pedestrians[0] at t = 0"),
+]
+
+
+@pytest.mark.parametrize("change, field, rule", IMPLAUSIBLE)
+def test_implausible_values_and_colliding_starts_name_the_field(tmp_path, change, field, rule):
+    test_violations_name_the_file_the_field_and_the_rule(tmp_path, change, field, rule)
+
+
+def test_an_empty_file_and_a_folder_say_what_they_are(tmp_path):
+    (tmp_path / "empty.yaml").write_text("")
+    with pytest.raises(ScenarioError, match="the document: the file is empty; must be a mapping"):
+        load_scenario(tmp_path / "empty.yaml")
+    (tmp_path / "folder").mkdir()
+    with pytest.raises(ScenarioError, match="is a folder"):
+        load_scenario(tmp_path / "folder")
+
+
+def walled_scenario(tmp_path, start_noise):
+    occupied = np.zeros((40, 40), bool)
+    occupied[:, 20:24] = True                   # a wall at x = 1.0 .. 1.2 m
+    OccupancyGrid(occupied, 0.05).to_yaml(tmp_path / "wall.map.yaml")
+    doc = {"name": "near-wall", "duration": 1.0, "map": "wall.map.yaml", "start_noise": start_noise,
+           "robots": [{"start": [0.5, 1.0, 0.0], "goal": {"position": [0.3, 0.3]}},
+                      {"start": [0.5, 1.62, 0.0], "goal": {"position": [0.3, 1.9]}}]}
+    (tmp_path / "near-wall.yaml").write_text(yaml.safe_dump(doc))
+    return load_scenario(tmp_path / "near-wall.yaml")
+
+
+def test_start_noise_is_applied_before_the_free_space_checks(tmp_path):
+    # Each start is 0.2 m from the wall and 0.02 m from the other robot: with 0.3 m of noise
+    # most draws collide, and every start handed to the simulator is in free space.
+    from dsmpepc_nlp.sim.scenario import start_conflict, start_states
+
+    scenario = walled_scenario(tmp_path, 0.3)
+    for seed in range(20):
+        states = start_states(scenario, np.random.default_rng(seed))
+        poses = [tuple(s[:3]) for s in states]
+        assert not any(start_conflict(i, poses, scenario.agents, scenario.grid, (), ())
+                       for i in range(2))
+        assert not np.allclose(states[0][:2], (0.5, 1.0))      # the noise was applied
+
+
+def test_start_noise_with_no_free_draw_is_an_error(tmp_path):
+    from dsmpepc_nlp.sim.scenario import start_states
+
+    scenario = walled_scenario(tmp_path, 0.3)
+    boxed = np.ones((40, 40), bool)
+    boxed[18:22, 8:12] = False                  # only a 0.2 m pocket around the first start
+    scenario = dataclasses.replace(scenario, grid=OccupancyGrid(boxed, 0.05))
+    with pytest.raises(InputError, match=r"robots\[0\].*no start in free space in 100 draws"):
+        start_states(scenario, np.random.default_rng(0))

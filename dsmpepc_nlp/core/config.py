@@ -6,7 +6,7 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 
-from .errors import InputError
+from .errors import MAX_SIZE, MAX_SPEED, InputError
 
 
 def _fail(owner: str, name: str, value, allowed: str) -> None:
@@ -40,7 +40,8 @@ class RobotConfig:
     """Differential-drive robot: limits and footprint (METHOD.md section 1)."""
 
     v_limit: float = 1.0
-    """Largest forward speed, m/s (our choice; MPEPC's wheelchair ran at about this speed)."""
+    """Largest forward speed, m/s, at most ``MAX_SPEED`` (our choice; MPEPC's wheelchair ran at
+    about this speed)."""
     omega_limit: float = 1.5
     """Largest turn rate magnitude, rad/s (our choice)."""
     accel_limit: float = 1.5
@@ -52,7 +53,7 @@ class RobotConfig:
 
     def __post_init__(self):
         _validate_fields(self, {
-            "v_limit": dict(low=0.0, low_open=True),
+            "v_limit": dict(low=0.0, low_open=True, high=MAX_SPEED),
             "omega_limit": dict(low=0.0, low_open=True),
             "accel_limit": dict(low=0.0, low_open=True, allow_inf=True),
             "alpha_limit": dict(low=0.0, low_open=True, allow_inf=True),
@@ -66,9 +67,10 @@ class RobotConfig:
             _fail("RobotConfig", "footprint", self.footprint,
                   "a non-empty sequence of (cx, cy, radius) triples")
         for cx, cy, radius in circles:
-            if not all(math.isfinite(v) for v in (cx, cy, radius)) or radius <= 0:
+            if not all(abs(v) <= MAX_SIZE for v in (cx, cy, radius)) or not radius > 0:
                 _fail("RobotConfig", "footprint", self.footprint,
-                      "circles with finite centres and radius > 0")
+                      f"circles with |cx|, |cy| <= {MAX_SIZE:g} m and 0 < radius <= "
+                      f"{MAX_SIZE:g} m")
         object.__setattr__(self, "footprint", circles)
 
     @property

@@ -13,12 +13,47 @@ class InputError(ValueError):
     """
 
 
-def finite_vector(name, value, size):
-    """``value`` as a float array of shape ``(size,)``; InputError unless finite."""
-    arr = np.array(value, dtype=float)
+# Plausible magnitudes: the ranges every position, duration, speed, size and resolution read from
+# a file or a configuration must lie in. Finite is not enough: 1e308 passes ``isfinite`` and
+# then overflows (a cycle count, a grid extent, a squared distance). Generous for any robot.
+
+MAX_COORDINATE = 1.0e6
+"""Largest ``|x|``, ``|y|`` (m) of a position (start, goal, origin, waypoint), and ``|phi|``
+(rad) of a heading."""
+MAX_DURATION = 86_400.0
+"""Longest duration (s): one day; also bounds waypoint times."""
+MAX_SPEED = 100.0
+"""Largest speed (m/s): a robot's ``v_limit``, a pedestrian's velocity components."""
+MAX_SIZE = 100.0
+"""Largest radius or length (m): footprint circles and offsets, tolerances, following
+distance, ``start_noise``."""
+RESOLUTION_RANGE = (1.0e-4, 100.0)
+"""Map cell side (m), inclusive."""
+
+
+def finite_vector(name, value, size, bound=math.inf):
+    """``value`` as a float array of shape ``(size,)``; InputError unless finite and
+    ``|value| <= bound`` elementwise."""
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}={value!r}: expected {size} finite numbers") from None
     if arr.shape != (size,) or not np.all(np.isfinite(arr)):
         raise InputError(f"{name}={value!r}: expected {size} finite numbers")
+    if np.any(np.abs(arr) > bound):
+        raise InputError(f"{name}={value!r}: expected {size} numbers in [-{bound:g}, {bound:g}]")
     return arr
+
+
+def number_in(name, value, low, high):
+    """``value`` as a float in ``[low, high]``; InputError naming ``name`` otherwise."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        x = math.nan
+    if isinstance(value, bool) or not low <= x <= high:
+        raise InputError(f"{name}={value!r}: expected a number in [{low:g}, {high:g}]")
+    return x
 
 
 def positive_number(name, value, allow_zero=False):

@@ -13,7 +13,14 @@ import math
 import numpy as np
 from scipy import ndimage
 
-from .errors import InputError, finite_vector, positive_number
+from .errors import (
+    MAX_COORDINATE,
+    RESOLUTION_RANGE,
+    InputError,
+    finite_vector,
+    number_in,
+    positive_number,
+)
 from .mapfile import read_map, write_map
 
 FAR = 1e3
@@ -91,9 +98,10 @@ class OccupancyGrid:
     occupied : array_like of bool or {0, 1}, shape (ny, nx)
         ``occupied[iy, ix]``; ``iy`` grows with world y and ``ix`` with world x. ny, nx >= 1.
     resolution : float
-        Cell side (m), finite and > 0.
+        Cell side (m), in :data:`~dsmpepc_nlp.core.errors.RESOLUTION_RANGE`.
     origin : array_like, shape (2,)
-        World (x, y) (m) of the lower-left corner of cell [0, 0]. Cell [iy, ix] has its centre at
+        World (x, y) (m) of the lower-left corner of cell [0, 0], each within
+        ``MAX_COORDINATE``. Cell [iy, ix] has its centre at
         ``origin + (ix + 0.5, iy + 0.5) * resolution``.
 
     Notes
@@ -112,8 +120,8 @@ class OccupancyGrid:
                 f"occupied has dtype {arr.dtype} and values other than 0/1: expected bool or 0/1"
             )
         self._occupied = _readonly(np.array(arr, dtype=bool))
-        self._resolution = positive_number("resolution", resolution)
-        self._origin = _readonly(finite_vector("origin", origin, 2))
+        self._resolution = number_in("resolution", resolution, *RESOLUTION_RANGE)
+        self._origin = _readonly(finite_vector("origin", origin, 2, MAX_COORDINATE))
 
     @classmethod
     def from_array(cls, occupied, resolution, origin=(0.0, 0.0)) -> OccupancyGrid:

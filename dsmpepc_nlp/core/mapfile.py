@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .errors import InputError, finite_vector, positive_number
+from .errors import MAX_COORDINATE, RESOLUTION_RANGE, InputError, finite_vector, number_in
 from .files import atomic_write_bytes
 
 
@@ -79,9 +79,10 @@ def read_map(path):
 
     From the YAML file and the PGM image it names.
 
-    Honoured fields: ``image`` (relative to the YAML's folder), ``resolution`` (m/cell),
-    ``origin`` [x, y, yaw] (yaw must be 0), ``negate`` (0/1, default 0), ``occupied_thresh``
-    (default 0.65), ``free_thresh`` (default 0.196), ``mode`` ("trinary" default, or "scale").
+    Honoured fields: ``image`` (relative to the YAML's folder), ``resolution`` (m/cell, in
+    ``RESOLUTION_RANGE``), ``origin`` [x, y, yaw] (``|x|, |y| <= MAX_COORDINATE``; yaw must
+    be 0), ``negate`` (0/1, default 0), ``occupied_thresh`` (default 0.65), ``free_thresh``
+    (default 0.196), ``mode`` ("trinary" default, or "scale").
 
     A pixel p of a PGM with maximum value M has occupancy ``(M - p) / M`` (``p / M`` when
     negated), i.e. ``(255 - p) / 255`` for 8-bit images; it is occupied when that exceeds
@@ -116,11 +117,11 @@ def read_map(path):
         except ValueError as exc:
             raise InputError(f"{where}: {exc}") from None
 
-    resolution = field(positive_number, "resolution")
+    resolution = field(number_in, "resolution", *RESOLUTION_RANGE)
     origin = meta["origin"]
     if not isinstance(origin, (list, tuple)) or len(origin) != 3:
         raise InputError(f"{where}: origin={origin!r}: expected [x, y, yaw]")
-    origin = field(finite_vector, "origin", 3)
+    origin = field(finite_vector, "origin", 3, MAX_COORDINATE)
     if origin[2] != 0.0:
         raise InputError(f"{where}: origin yaw={origin[2]!r}: only 0 is supported")
     negate = meta.get("negate", 0)

@@ -29,6 +29,13 @@ A scenario file is a YAML mapping (units: m, s, rad; angles counter-clockwise fr
 Every violation (unknown key, missing field, wrong type, non-finite number, non-positive radius,
 bad reference) raises :class:`ScenarioError` naming the file, the field path
 (``robots[1].goal.position``) and what is allowed. ``scenarios/README.md`` holds the same schema.
+
+Numbers must also be plausible (``core/errors.py``): positions and headings within
+``MAX_COORDINATE`` (1e6), ``duration`` and waypoint times within ``MAX_DURATION`` (one day),
+``v_limit`` and velocities within ``MAX_SPEED`` (100 m/s), radii, footprint offsets, tolerances,
+following distances and ``start_noise`` within ``MAX_SIZE`` (100 m). A start whose footprint
+overlaps the map, another robot, a parked robot or a pedestrian at t = 0 is an error; with
+``start_noise`` each noisy start is re-drawn until it is in free space (:func:`start_states`).
 """
 
 from __future__ import annotations
@@ -41,7 +48,7 @@ import numpy as np
 import yaml
 
 from ..core.config import RobotConfig, RobotState
-from ..core.errors import InputError
+from ..core.errors import MAX_COORDINATE, MAX_DURATION, MAX_SIZE, MAX_SPEED, InputError
 from ..core.geometry import footprint_points
 from ..core.world import OccupancyGrid
 from .types import Agent, FixedGoal, FollowGoal, ParkedRobot, Pedestrian, Scenario
@@ -73,9 +80,12 @@ class _Reader:
         self.source = source
 
     def fail(self, path: str, problem: str):
-        raise ScenarioError(f"scenario {self.source}: {path}: {problem}")
+        raise ScenarioError(f"scenario {self.source}: {path or 'the document'}: {problem}")
 
     def mapping(self, value, path, required=(), optional=()):
+        if value is None and not path:
+            self.fail(path, "the file is empty; must be a mapping with "
+                      f"{', '.join(required)}")
         if not isinstance(value, dict):
             self.fail(path, f"got {type(value).__name__}; must be a mapping")
         allowed = (*required, *optional)
@@ -88,7 +98,7 @@ class _Reader:
                 self.fail(f"{path}.{key}" if path else key, "missing required field")
         return value
 
-    def number(self, value, path, *, low=None, low_open=False):
+    def number(self, value, path, *, low=None, low_open=False, high=None):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             self.fail(path, f"{value!r} is not a number")
         value = float(value)
@@ -96,12 +106,18 @@ class _Reader:
             self.fail(path, f"{value!r}: must be a finite number")
         if low is not None and (value <= low if low_open else value < low):
             self.fail(path, f"{value!r}: must be {'>' if low_open else '>='} {low}")
+        if high is not None and value > high:
+            self.fail(path, f"{value!r}: must be <= {high:g}")
         return value
 
-    def vector(self, value, path, size, names):
+    def vector(self, value, path, size, names, bound=MAX_COORDINATE):
         if not isinstance(value, (list, tuple)) or len(value) != size:
             self.fail(path, f"{value!r}: must be a list of {size} numbers [{', '.join(names)}]")
-        return tuple(self.number(v, f"{path}[{i}]") for i, v in enumerate(value))
+        numbers = tuple(self.number(v, f"{path}[{i}]") for i, v in enumerate(value))
+        for i, v in enumerate(numbers):
+            if abs(v) > bound:
+                self.fail(f"{path}[{i}]", f"{v!r}: must be within [-{bound:g}, {bound:g}]")
+        return numbers
 
     def string(self, value, path):
         if not isinstance(value, str) or not value:
@@ -124,7 +140,7 @@ class _Reader:
         circles = self.items(value, path, min_items=1)
         out = []
         for i, c in enumerate(circles):
-            cx, cy, r = self.vector(c, f"{path}[{i}]", 3, ("cx", "cy", "radius"))
+            cx, cy, r = self.vector(c, f"{path}[{i}]", 3, ("cx", "cy", "radius"), MAX_SIZE)
             if r <= 0:
                 self.fail(f"{path}[{i}][2]", f"radius {r!r}: must be > 0")
             out.append((cx, cy, r))
@@ -147,6 +163,9 @@ def resolve(name_or_path) -> Path:
     text = str(name_or_path)
     path = Path(text)
     if path.suffix in (".yaml", ".yml") or path.exists():
+        if path.is_dir():
+            raise ScenarioError(f"scenario {text!r}: is a folder; expected a scenario YAML file "
+                                "or a built-in name")
         if not path.is_file():
             raise ScenarioError(f"scenario {text!r}: file not found")
         return path
@@ -190,8 +209,8 @@ def parse_scenario(data, source: str = "<mapping>", folder=None) -> Scenario:
     description = data.get("description", "")
     if not isinstance(description, str):
         r.fail("description", f"{description!r}: must be a string")
-    duration = r.number(data["duration"], "duration", low=0.0, low_open=True)
-    start_noise = r.number(data.get("start_noise", 0.0), "start_noise", low=0.0)
+    duration = r.number(data["duration"], "duration", low=0.0, low_open=True, high=MAX_DURATION)
+    start_noise = r.number(data.get("start_noise", 0.0), "start_noise", low=0.0, high=MAX_SIZE)
     grid, map_path = None, None
     if "map" in data:
         map_name = r.string(data["map"], "map")
@@ -215,26 +234,98 @@ def parse_scenario(data, source: str = "<mapping>", folder=None) -> Scenario:
         r.mapping(p, where, required=("pose", "footprint"))
         parked.append(ParkedRobot(r.vector(p["pose"], f"{where}.pose", 3, ("x", "y", "phi")),
                                   r.footprint(p["footprint"], f"{where}.footprint")))
+    parked = tuple(parked)
+    starts = [a.start.pose for a in agents]
+    for i in range(len(agents)):
+        problem = start_conflict(i, starts, agents, grid, parked, pedestrians)
+        if problem:
+            s = agents[i].start
+            r.fail(f"robots[{i}].start", f"[{s.x}, {s.y}, {s.phi}]: {problem}; a start must be "
+                   "in free space")
     if grid is not None:
-        _check_against_map(r, grid, agents)
+        _check_goals_against_map(r, grid, agents)
     return Scenario(name=name, agents=agents, grid=grid, pedestrians=pedestrians,
-                    parked=tuple(parked), duration=duration, start_noise=start_noise,
+                    parked=parked, duration=duration, start_noise=start_noise,
                     map_path=map_path, description=description)
 
 
-def _check_against_map(r, grid, agents) -> None:
-    """A start whose footprint overlaps the map, or a fixed goal inside it, is an error.
+def _body(agent, pose):
+    """World centres (C, 2) and radii (C,) of an agent's footprint at ``pose``."""
+    circles = np.asarray((agent.robot or RobotConfig()).footprint, dtype=float)
+    return footprint_points(np.asarray(pose, dtype=float), circles[:, :2]), circles[:, 2]
 
-    The check uses the map's signed distance, the same one that decides a collision.
+
+def _overlap(centres, radii, other_centres, other_radii) -> float:
+    """How deep (m) two sets of circles overlap; <= 0 when they are apart."""
+    gaps = np.linalg.norm(centres[:, None, :] - other_centres[None, :, :], axis=-1)
+    return float(np.max(radii[:, None] + other_radii[None, :] - gaps))
+
+
+def start_conflict(i, starts, agents, grid, parked, pedestrians) -> str:
+    """What robot ``i``'s footprint at ``starts[i]`` (x, y, phi) overlaps at t = 0, or "".
+
+    Checked against the map (the signed distance that decides a collision), robots ``0..i-1``
+    at ``starts``, the parked robots and the pedestrians at t = 0: a start that is already a
+    collision is an error, not an episode.
     """
+    centres, radii = _body(agents[i], starts[i])
+    if grid is not None:
+        depth = float(np.max(radii - grid.distance(centres)))
+        if depth > 0:
+            return f"the footprint overlaps the map by {depth:.3f} m"
+    for j in range(i):
+        depth = _overlap(centres, radii, *_body(agents[j], starts[j]))
+        if depth > 0:
+            return f"overlaps robots[{j}] ({agents[j].name!r}) at t = 0 by {depth:.3f} m"
+    for k, robot in enumerate(parked):
+        circles = np.asarray(robot.footprint, dtype=float)
+        other = footprint_points(np.asarray(robot.pose, dtype=float), circles[:, :2])
+        depth = _overlap(centres, radii, other, circles[:, 2])
+        if depth > 0:
+            return f"overlaps parked_robots[{k}] by {depth:.3f} m"
+    for k, person in enumerate(pedestrians):
+        depth = _overlap(centres, radii, person.position(0.0)[None], np.array([person.radius]))
+        if depth > 0:
+            return f"overlaps pedestrians[{k}] at t = 0 by {depth:.3f} m"
+    return ""
+
+
+START_DRAWS = 100
+"""Draws of one robot's start perturbation before a scenario's ``start_noise`` is rejected."""
+
+
+def start_states(scenario, rng) -> list:
+    """Start states ``[x, y, phi, v, omega]`` with ``scenario.start_noise`` applied.
+
+    The noise (a Gaussian of standard deviation ``start_noise`` m on x and y, robot by robot)
+    is applied BEFORE the free-space checks of :func:`start_conflict`: a draw that puts a
+    robot's footprint into the map, an earlier robot, a parked robot or a pedestrian is drawn
+    again, up to :data:`START_DRAWS` times, after which an InputError names the scenario, the
+    robot and the noise. Without noise the starts are as written (the loader checked them).
+    """
+    noise = scenario.start_noise
+    agents = scenario.agents
+    starts = [a.start.pose for a in agents]
     for i, agent in enumerate(agents):
-        circles = np.asarray((agent.robot or RobotConfig()).footprint, dtype=float)
-        s = agent.start
-        centres = footprint_points(s.pose, circles)
-        gap = float(np.min(grid.distance(centres) - circles[:, 2]))
-        if gap < 0:
-            r.fail(f"robots[{i}].start", f"[{s.x}, {s.y}, {s.phi}]: the footprint overlaps the "
-                   f"map by {-gap:.3f} m; a start must be in free space")
+        if noise <= 0:
+            continue
+        for _ in range(START_DRAWS):
+            dx, dy = rng.normal(0.0, noise, 2)
+            starts[i] = (agent.start.x + dx, agent.start.y + dy, agent.start.phi)
+            if not start_conflict(i, starts, agents, scenario.grid, scenario.parked,
+                                  scenario.pedestrians):
+                break
+        else:
+            raise InputError(f"scenario {scenario.name!r}: robots[{i}] ({agent.name!r}): no "
+                             f"start in free space in {START_DRAWS} draws with start_noise = "
+                             f"{noise} m")
+    return [np.array([x, y, phi, a.start.v, a.start.omega], dtype=float)
+            for (x, y, phi), a in zip(starts, agents)]
+
+
+def _check_goals_against_map(r, grid, agents) -> None:
+    """A fixed goal inside the map is an error (the map's signed distance decides)."""
+    for i, agent in enumerate(agents):
         if isinstance(agent.goal, FixedGoal):
             inside = float(grid.distance(np.asarray(agent.goal.position, dtype=float)))
             if inside < 0:
@@ -257,7 +348,7 @@ def _agent(r, a, where, index, n_pedestrians) -> Agent:
         if "distance" in goal:
             r.fail(f"{gpath}.distance", "only allowed with 'follow'")
         tolerance = r.number(goal.get("tolerance", DEFAULT_GOAL_TOLERANCE), f"{gpath}.tolerance",
-                             low=0.0, low_open=True)
+                             low=0.0, low_open=True, high=MAX_SIZE)
         target = FixedGoal(r.vector(goal["position"], f"{gpath}.position", 2, ("x", "y")),
                            tolerance)
     else:
@@ -267,9 +358,9 @@ def _agent(r, a, where, index, n_pedestrians) -> Agent:
                    f"{n_pedestrians} pedestrian(s), indices from 0")
         target = FollowGoal(
             k, r.number(goal.get("distance", DEFAULT_FOLLOW_DISTANCE), f"{gpath}.distance",
-                        low=0.0),
+                        low=0.0, high=MAX_SIZE),
             r.number(goal.get("tolerance", DEFAULT_FOLLOW_TOLERANCE), f"{gpath}.tolerance",
-                     low=0.0, low_open=True))
+                     low=0.0, low_open=True, high=MAX_SIZE))
     robot = None
     if "footprint" in a or "v_limit" in a:
         changes = {}
@@ -277,7 +368,7 @@ def _agent(r, a, where, index, n_pedestrians) -> Agent:
             changes["footprint"] = r.footprint(a["footprint"], f"{where}.footprint")
         if "v_limit" in a:
             changes["v_limit"] = r.number(a["v_limit"], f"{where}.v_limit", low=0.0,
-                                          low_open=True)
+                                          low_open=True, high=MAX_SPEED)
         robot = dataclasses.replace(RobotConfig(), **changes)
     return Agent(name, RobotState(x, y, phi), target, robot)
 
@@ -285,7 +376,7 @@ def _agent(r, a, where, index, n_pedestrians) -> Agent:
 def _pedestrian(r, p, where) -> Pedestrian:
     r.mapping(p, where, optional=("radius", "waypoints", "start", "velocity"))
     radius = r.number(p.get("radius", DEFAULT_PEDESTRIAN_RADIUS), f"{where}.radius", low=0.0,
-                      low_open=True)
+                      low_open=True, high=MAX_SIZE)
     if "waypoints" in p:
         for key in ("start", "velocity"):
             if key in p:
@@ -293,6 +384,10 @@ def _pedestrian(r, p, where) -> Pedestrian:
         rows = r.items(p["waypoints"], f"{where}.waypoints", min_items=1)
         table = np.array([r.vector(w, f"{where}.waypoints[{i}]", 3, ("t", "x", "y"))
                           for i, w in enumerate(rows)])
+        late = np.flatnonzero(np.abs(table[:, 0]) > MAX_DURATION)
+        if late.size:
+            r.fail(f"{where}.waypoints[{late[0]}][0]", f"time {table[late[0], 0]!r}: must be "
+                   f"within [-{MAX_DURATION:g}, {MAX_DURATION:g}] s")
         bad = np.flatnonzero(np.diff(table[:, 0]) <= 0)
         if bad.size:
             r.fail(f"{where}.waypoints[{bad[0] + 1}][0]",
@@ -301,5 +396,5 @@ def _pedestrian(r, p, where) -> Pedestrian:
     if "start" not in p or "velocity" not in p:
         r.fail(where, "needs 'waypoints', or both 'start' and 'velocity'")
     start = r.vector(p["start"], f"{where}.start", 2, ("x", "y"))
-    velocity = r.vector(p["velocity"], f"{where}.velocity", 2, ("vx", "vy"))
+    velocity = r.vector(p["velocity"], f"{where}.velocity", 2, ("vx", "vy"), MAX_SPEED)
     return Pedestrian.constant(start, velocity, radius)

@@ -36,6 +36,7 @@ from .outcomes import (  # noqa: F401 (re-exported)
     outcome,
     window_progress,
 )
+from .scenario import start_states
 from .types import (  # noqa: F401 (re-exported: the old home of the scenario types)
     Agent,
     FixedGoal,
@@ -104,7 +105,7 @@ class _Loop:
                         for a in agents]
         self.planners = [planner_factory(c, solver) for c in self.configs]
         self.footprints = [np.array(c.robot.footprint) for c in self.configs]
-        self.states = _start_states(agents, scenario.start_noise, rng)
+        self.states = start_states(scenario, rng)  # noise first, then the free-space checks
         self.base_world = World(scenario.grid)
         self.parked = [DynamicObstacle.robot(p.pose, (0.0, 0.0), p.footprint)
                        for p in scenario.parked]
@@ -229,16 +230,6 @@ class _Loop:
             if self.outcomes[i] is None:
                 self.outcomes[i] = "timeout"
                 self.outcome_times[i] = self.times[-1]
-
-
-def _start_states(agents, start_noise, rng) -> list:
-    """Start states ``[x, y, phi, v, omega]``, positions perturbed by ``start_noise`` (m, std)."""
-    states = []
-    for agent in agents:
-        s = agent.start
-        dx, dy = rng.normal(0.0, start_noise, 2) if start_noise > 0 else (0, 0)
-        states.append(np.array([s.x + dx, s.y + dy, s.phi, s.v, s.omega], dtype=float))
-    return states
 
 
 def _best_samples(evaluated, max_samples) -> tuple:
