@@ -192,3 +192,23 @@ def test_parameter_vector_names_every_field():
     values = dict(zip(PARAMETERS, cycle.parameters))
     assert values["terminal"] == 0.0 and values["on_terminal"] == 0.0
     assert values["goal_x"] == 1.0 and values["has_grid"] == 0.0
+
+
+def test_build_command_compiles_or_says_numpy(capsys):
+    from dsmpepc_nlp.cli import main
+
+    assert main(["build"]) == 0
+    out = capsys.readouterr().out
+    assert ("exact evaluator ready" in out) == (exact.kernel() is not None)
+
+
+def test_bench_reports_both_paths_side_by_side():
+    from dsmpepc_nlp.bench.crosscheck import demo_cycles
+    from dsmpepc_nlp.bench.timing import exact_timing
+
+    config = PlannerConfig()
+    result = exact_timing(demo_cycles(config, 1, 0, n_samples=64), config, n=128, repeats=2)
+    for name in ("exact_us_per_trajectory", "exact_cpu_us_per_trajectory", "sampling_4096_ms"):
+        assert result[name] > 0 and result[f"{name}_numpy"] > 0
+        assert result[f"{name}_speedup"] == pytest.approx(result[f"{name}_numpy"] / result[name])
+    assert result["compiled"] == (exact.kernel() is not None)
