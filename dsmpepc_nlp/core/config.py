@@ -448,7 +448,7 @@ class SolverConfig:
     pair_budget: int = 2_000_000
     """Largest (trajectory, pose, footprint circle, obstacle circle) count the numpy exact cost
     handles in one chunk: keeps its temporaries near 100 MB however crowded the world."""
-    parallel_rows: int = 512
+    parallel_rows: int = 64
     """Smallest batch the compiled exact evaluator spreads over every core; smaller batches run
     on the calling thread, where waking the thread pool would cost more than it saves."""
 

@@ -96,7 +96,7 @@ def numpy_only():
 
 
 def evaluate_compiled(z: np.ndarray, cycle, module,
-                      parallel_rows: int = 512) -> tuple[Trajectory, CostBreakdown]:
+                      parallel_rows: int = 64) -> tuple[Trajectory, CostBreakdown]:
     """Roll out and cost ``z`` (n, 4) with the compiled kernel ``module`` from ``cycle``.
 
     Batches of at least ``parallel_rows`` rows use every core, smaller ones the calling thread
