@@ -212,3 +212,15 @@ def test_bench_reports_both_paths_side_by_side():
         assert result[name] > 0 and result[f"{name}_numpy"] > 0
         assert result[f"{name}_speedup"] == pytest.approx(result[f"{name}_numpy"] / result[name])
     assert result["compiled"] == (exact.kernel() is not None)
+
+
+@needs_kernel
+def test_long_horizon_sums_like_numpy():
+    """Over 128 steps numpy's pairwise summation splits the sum: the kernel follows it."""
+    from dsmpepc_nlp.core.config import HorizonConfig
+
+    config = PlannerConfig(horizon=HorizonConfig(dt=0.05, n_steps=300))
+    world = World(obstacles=[DynamicObstacle.pedestrian((3.0, 0.4), (-0.6, 0.0))])
+    cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.1, 0.4, 0.0), world, (8.0, 1.0), config)
+    z = edge_z(config, np.random.default_rng(3))
+    assert_same(evaluate_batch(z, cycle, compiled=True), evaluate_batch(z, cycle, compiled=False))

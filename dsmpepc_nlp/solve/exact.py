@@ -35,7 +35,7 @@ from .cycle import Cycle
 
 _KERNEL_FILE = Path(__file__).with_name("_exact_kernel.py")
 _LOCK = threading.Lock()
-_STATE = {"kernel": None, "failed": False, "numpy_only": False}
+_STATE = {"kernel": None, "failed": "", "numpy_only": False}
 
 
 def kernel_source_hash() -> str:
@@ -60,26 +60,18 @@ def kernel():
         return None
     if _STATE["kernel"] is not None:
         return _STATE["kernel"]
-    if _STATE["failed"] or not compile_enabled():
-        warn_once("exact-compile", "exact cost on the numpy path (compiled "
-                  "evaluator off: DSMPEPC_NO_COMPILE is set or numba is missing); slower")
-        return None
-    try:
-        import numba
-    except ImportError:
-        _STATE["failed"] = True
-        return kernel()
-    # numba's simple thread pool unless the user chose one: OpenMP's wake-up and barrier cost
-    # milliseconds per call on a busy machine, which small batches (a plan's verdicts) cannot
-    # afford. Set in the environment too: numba re-reads its configuration from there.
-    os.environ.setdefault("NUMBA_THREADING_LAYER", "workqueue")
-    numba.config.THREADING_LAYER = os.environ["NUMBA_THREADING_LAYER"]
-    previous = numba.config.CACHE_DIR
-    numba.config.CACHE_DIR = str(kernel_cache_dir())
-    try:  # numba picks the cache folder when the kernel is decorated, i.e. on import
-        _STATE["kernel"] = importlib.import_module("._exact_kernel", __package__)
-    finally:
-        numba.config.CACHE_DIR = previous
+    if not compile_enabled():
+        _STATE["failed"] = "DSMPEPC_NO_COMPILE is set"
+    if not _STATE["failed"]:
+        try:
+            _STATE["kernel"] = _import_kernel()
+        except ImportError:
+            _STATE["failed"] = "numba is missing"
+        except OSError as error:
+            _STATE["failed"] = f"the compile cache is not writable ({error})"
+    if _STATE["kernel"] is None:
+        warn_once("exact-compile", f"exact cost on the numpy path, slower (compiled evaluator "
+                  f"off: {_STATE['failed']})")
     return _STATE["kernel"]
 
 
@@ -93,6 +85,22 @@ def numpy_only():
         yield
     finally:
         _STATE["numpy_only"] = previous
+
+
+def _import_kernel():
+    import numba
+
+    # numba's simple thread pool unless the user chose one: OpenMP's wake-up and barrier cost
+    # milliseconds per call on a busy machine, which small batches (a plan's verdicts) cannot
+    # afford. Set in the environment too: numba re-reads its configuration from there.
+    os.environ.setdefault("NUMBA_THREADING_LAYER", "workqueue")
+    numba.config.THREADING_LAYER = os.environ["NUMBA_THREADING_LAYER"]
+    previous = numba.config.CACHE_DIR
+    numba.config.CACHE_DIR = str(kernel_cache_dir())
+    try:  # numba picks the cache folder when the kernel is decorated, i.e. on import
+        return importlib.import_module("._exact_kernel", __package__)
+    finally:
+        numba.config.CACHE_DIR = previous
 
 
 def evaluate_compiled(z: np.ndarray, cycle, module,
