@@ -228,3 +228,18 @@ def test_start_noise_with_no_free_draw_is_an_error(tmp_path):
     scenario = dataclasses.replace(scenario, grid=OccupancyGrid(boxed, 0.05))
     with pytest.raises(InputError, match=r"robots\[0\].*no start in free space in 100 draws"):
         start_states(scenario, np.random.default_rng(0))
+
+
+def test_reading_scenarios_does_not_load_the_simulator():
+    """The scenario types live in sim/types.py: loading a file does not import the closed loop
+    (the old layout imported simulate.py for the types)."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from dsmpepc_nlp.sim.scenario import load_scenario; "
+            "load_scenario('circle-4'); "
+            "print(sorted(m for m in sys.modules if m.startswith('dsmpepc_nlp.s')))")
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            check=True).stdout
+    assert "dsmpepc_nlp.sim.types" in loaded
+    assert "dsmpepc_nlp.sim.simulate" not in loaded
