@@ -118,7 +118,7 @@ def test_overlap_and_far_objects():
                   [DynamicObstacle.pedestrian((0.1, 0.0), (0.0, 0.0)), *far])
     for config in (PlannerConfig.ds_mpepc(), PlannerConfig.mpepc()):
         cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0), world, (1.0, 1.0), config)
-        assert not cycle.reach[1:].any() and cycle.reach[0]
+        assert not cycle.in_reach[1:].any() and cycle.in_reach[0]
         z = edge_z(config, np.random.default_rng(1), 200)
         compiled = evaluate_batch(z, cycle, compiled=True)
         assert_same(compiled, evaluate_batch(z, cycle, compiled=False))
@@ -130,7 +130,7 @@ def test_min_distance_reaches_culled_objects():
     """With only far objects, the smallest distance still comes from them (exactly)."""
     world = World(obstacles=[DynamicObstacle.pedestrian((30.0, 0.0), (0.0, 0.0), 0.3)])
     cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0), world, (5.0, 0.0), PlannerConfig())
-    assert not cycle.reach.any()
+    assert not cycle.in_reach.any()
     z = edge_z(cycle.config, np.random.default_rng(2))
     compiled = evaluate_batch(z, cycle, compiled=True)
     assert_same(compiled, evaluate_batch(z, cycle, compiled=False))

@@ -59,7 +59,7 @@ class Cycle:
         Path length to the goal on the inflated map (Euclidean without a map).
     footprint : ndarray, (C, 3)
         The robot's body-frame circles ``(cx, cy, radius)``, m.
-    reach : ndarray of bool, (number of objects,)
+    in_reach : ndarray of bool, (number of objects,)
         Whether each dynamic object can matter to the collision probability within the
         horizon's reach (see :func:`reach_mask`); the others only enter the smallest distance
         and the terminal time to collision.
@@ -68,7 +68,7 @@ class Cycle:
     kernel_arrays : dict of str to ndarray
         What the compiled kernel reads, contiguous: ``footprint``; ``sdf`` (the map's signed
         distance table, read in place) and ``nf`` (the navigation function's table), each with
-        its resolution and origin in ``parameters``; the circles of the objects in ``reach``
+        its resolution and origin in ``parameters``; the circles of the objects ``in_reach``
         (``predicted`` (N+1, K', 2), ``radii``, ``velocities``, ``starts``: object ``o`` is
         circles ``starts[o]:starts[o+1]``); the others' ``culled_predicted`` and
         ``culled_radii``; every circle at the horizon's end (``end_centers``, ``end_radii``,
@@ -87,7 +87,7 @@ class Cycle:
     predicted: np.ndarray
     navigation: object
     footprint: np.ndarray = None
-    reach: np.ndarray = None
+    in_reach: np.ndarray = None
     parameters: np.ndarray = None
     kernel_arrays: dict = None
 
@@ -101,10 +101,10 @@ class Cycle:
         navigation = world.navigation(goal, config.robot.inflation_radius,
                                       near=(state.x, state.y), reach=config.reach)
         footprint = np.array(config.robot.footprint, dtype=float)
-        reach, floor = reach_mask(state, config, predicted, radii, owner, len(world.obstacles))
-        keep = reach[owner]
-        kept = np.flatnonzero(reach)
-        counts = np.bincount(owner[keep], minlength=len(reach))[kept]
+        in_reach, floor = reach_mask(state, config, predicted, radii, owner, len(world.obstacles))
+        keep = in_reach[owner]
+        kept = np.flatnonzero(in_reach)
+        counts = np.bincount(owner[keep], minlength=len(in_reach))[kept]
         grid = world.grid
         arrays = {
             "footprint": footprint,
@@ -120,7 +120,7 @@ class Cycle:
                   for name, a in arrays.items()}
         parameters = parameter_vector(state, goal, config, grid, navigation, floor, CULL_SIGMAS)
         return cls(config, state, goal, world, times, centers, radii, velocities, owner,
-                   predicted, navigation, footprint, reach, parameters, arrays)
+                   predicted, navigation, footprint, in_reach, parameters, arrays)
 
     @property
     def grid(self):
