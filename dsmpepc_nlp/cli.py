@@ -19,7 +19,6 @@ import sys
 import time
 from pathlib import Path
 
-import matplotlib
 import numpy as np
 
 from .bench import commands
@@ -33,11 +32,10 @@ from .sim.panels import cost_panels
 from .sim.scenario import builtin_names, load_scenario
 from .sim.simulate import simulate
 from .solve.exact import build as build_exact
-from .viz import plots
-
-matplotlib.use("Agg")  # files only; the command line never opens a window
+from .viz import figures
 
 SOLVERS = ("nlp", "sampling", "fast")
+
 DEFAULT_SAMPLE_CYCLES = 5
 """Cycles per robot whose evaluated trajectories a run records for its figure."""
 
@@ -78,10 +76,10 @@ def run_one(scenario, variant: str, solver_name: str, seed: int, out: Path, *,
     stem = f"{scenario.name}-{variant}-{solver_name}-seed{seed}"
     files = {"episode": str(episode.save(out / f"{stem}.npz"))}
     if figure:
-        files["figure"] = str(plots.episode_figure(episode, path=out / f"{stem}.png"))
+        files["figure"] = str(figures().episode_figure(episode, path=out / f"{stem}.png"))
     if animate:
         stride = max(1, episode.n_cycles // 150)
-        files["animation"] = str(plots.animate(episode, out / f"{stem}.gif", stride=stride))
+        files["animation"] = str(figures().animate(episode, out / f"{stem}.gif", stride=stride))
     return {
         "scenario": scenario.name, "variant": variant, "solver": solver_name, "seed": seed,
         "outcomes": list(episode.outcomes), "metrics": json_clean(episode_metrics(episode)),
@@ -160,7 +158,7 @@ def _cost_panels(episode, seconds: float, out: Path) -> Path:
     state, world, goal = inputs[k]
     stem = f"{episode.meta['scenario']}-panels-t{planned[k]:.1f}s"
     panels = cost_panels(state, world, goal, episode.config())
-    return plots.cost_panels(panels, path=out / f"{stem}.png")
+    return figures().cost_panels(panels, path=out / f"{stem}.png")
 
 
 def cmd_compare(args) -> int:
@@ -175,7 +173,7 @@ def cmd_compare(args) -> int:
     results = {v: run_one(scenario, v, args.solver, args.seed, out, figure=False,
                           sample_cycles=0) for v in variants}
     figure = out / f"{scenario.name}-compare-{'-'.join(variants)}-{args.solver}-seed{args.seed}.png"
-    plots.compare_figure({v: r["_episode"] for v, r in results.items()}, path=figure)
+    figures().compare_figure({v: r["_episode"] for v, r in results.items()}, path=figure)
     if args.json:
         payload = {v: dict(_public(r), files=dict(r["files"], compare_figure=str(figure)))
                    for v, r in results.items()}

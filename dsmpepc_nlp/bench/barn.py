@@ -37,7 +37,7 @@ from ..core.world import OccupancyGrid
 from ..sim.metrics import episode_metrics
 from ..sim.simulate import simulate
 from ..sim.types import Agent, FixedGoal, Scenario
-from ..viz.results import outcome_figure
+from ..viz import figures
 from .params import configure
 from .results import ResultTable
 from .runner import mean, outcome_rates, run_all
@@ -344,7 +344,7 @@ def run_benchmark(settings: BarnSettings, worlds, out_dir, *, workers: int | Non
             and r["solver"] == settings.solver and r["world"] in set(worlds)]
     rows.sort(key=lambda r: r["world"])
     summary = summarise(rows)
-    outcome_figure(rows, Path(out_dir) / "barn.png",
+    figures("results").outcome_figure(rows, Path(out_dir) / "barn.png",
                    title=f"BARN, {settings.variant} ({settings.solver}), "
                          f"success {summary['success_rate']:.2f}")
     return rows, summary

@@ -28,7 +28,7 @@ from ..core.jsonio import json_clean
 from ..core.progress import EpisodeProgress, say
 from ..sim.scenario import load_scenario
 from ..sim.simulate import simulate
-from ..viz import plots
+from ..viz import figures
 from . import barn, crowds, sweep
 from .crosscheck import crosscheck
 from .params import parse_params
@@ -82,7 +82,7 @@ def run_crosscheck(args) -> int:
     started = time.perf_counter()
     result = crosscheck(cycles, robot_config, solver, n_samples=args.n_samples, tol=args.tol)
     stem = f"{scenario.name}-{args.variant}-crosscheck-{args.solver}-seed{args.seed}"
-    figure = plots.crosscheck_figure(result.gap, path=Path(args.out) / f"{stem}.png")
+    figure = figures().crosscheck_figure(result.gap, path=Path(args.out) / f"{stem}.png")
     summary = dict(result.to_dict(), scenario=scenario.name, variant=args.variant,
                    solver=args.solver, seed=args.seed, wall_time=time.perf_counter() - started,
                    statuses={s: result.nlp_status.count(s) for s in set(result.nlp_status)},

@@ -25,7 +25,7 @@ from ..core.errors import InputError
 from ..sim.metrics import episode_metrics
 from ..sim.scenario import load_scenario
 from ..sim.simulate import simulate
-from ..viz.results import heatmap_figure
+from ..viz import figures
 from .orca import check_variants, simulate_orca
 from .params import SECTIONS, configure, parse_params  # noqa: F401 (re-exported)
 from .results import ResultTable
@@ -164,7 +164,7 @@ def plot_heatmaps(rows, names, out_dir) -> list:
     for x_name, y_name in pairs:
         grids = [(value, *rate_grid(rows, x_name, y_name, value))
                  for value in ("success_rate", "deadlock_rate")]
-        paths.append(heatmap_figure(x_name, y_name, grids,
+        paths.append(figures("results").heatmap_figure(x_name, y_name, grids,
                                     Path(out_dir) / f"sweep_{x_name}_{y_name}.png"))
     return paths
 
