@@ -104,3 +104,30 @@ def test_terminal_time_to_collision_sees_where_the_obstacle_will_be():
     expected = _first_root_inverse(-centre, np.array([DS.robot.v_limit + 0.1, -0.02]), 0.6)
     assert expected > 0.0
     assert 1.0 / costs.ttc_terminal == pytest.approx(expected, rel=1e-9)
+
+
+def test_action_term_is_the_weighted_sum_of_squared_commands():
+    # J_action = sum_j (c_v v_j^2 + c_w omega_j^2) dt on a turning trajectory.
+    traj = rollout(np.array([3.0, 0.6, 0.9, 0.8]), RobotState(0.0, 0.0, 0.0, 0.2, 0.1), DS)
+    assert np.max(np.abs(traj.omega)) > 0.1
+    cost = DS.cost
+    expected = np.sum(cost.c_v * traj.v**2 + cost.c_w * traj.omega**2) * DS.horizon.dt
+    costs = evaluate(traj, World(), (6.0, 2.0), DS)
+    assert costs.terms["action"] == pytest.approx(expected, rel=1e-12)
+
+
+@pytest.mark.parametrize("heading", [0.0, 0.3, 2.5])
+def test_on_the_goal_the_heading_error_is_zero_whatever_the_heading(heading):
+    # The descent direction is undefined on the goal (METHOD.md gives only the limits); the
+    # package defines the heading error as 0 there, on a map too, where the grid's central
+    # differences around the goal need not vanish.
+    from dsmpepc_nlp.core.world import OccupancyGrid
+
+    occupied = np.zeros((60, 60), bool)
+    occupied[:, 45:] = True
+    world = World(OccupancyGrid.from_array(occupied, 0.1, (-3.0, -3.0)))
+    goal = (0.513, 0.227)
+    stop = rollout(np.array([2.0, 0.0, 0.0, 0.0]), RobotState(*goal, heading), DS)
+    geometry = exact_geometry(stop[None], world, goal, DS)
+    assert geometry.heading_error[0, 0, 0] == 0.0
+    assert evaluate(stop, world, goal, DS).terms["heading"] == 0.0
