@@ -29,7 +29,8 @@ def _first_root_inverse(p, w, radius):
 
 
 def test_curvature_of_the_law_off_the_line_of_sight():
-    # Park and Kuipers (2011): kappa = -(1/r)[k2 (de - atan(-k1 th)) + (1 + k1/(1 + (k1 th)^2)) sin de]
+    # Park and Kuipers (2011):
+    # kappa = -(1/r)[k2 (de - atan(-k1 th)) + (1 + k1/(1 + (k1 th)^2)) sin de]
     law = DS.control_law
     pose, target = (0.0, 0.0, 0.4), (2.0, 1.0, -0.3)
     los = math.atan2(1.0, 2.0)

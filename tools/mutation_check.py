@@ -82,7 +82,8 @@ def _mutable_nodes(tree):
         elif isinstance(node, ast.Compare) and type(node.ops[0]) in _SWAP_CMP:
             yield node, f"{type(node.ops[0]).__name__} -> {_SWAP_CMP[type(node.ops[0])].__name__}"
         elif isinstance(node, ast.BoolOp):
-            yield node, f"{type(node.op).__name__} -> {'Or' if isinstance(node.op, ast.And) else 'And'}"
+            other = "Or" if isinstance(node.op, ast.And) else "And"
+            yield node, f"{type(node.op).__name__} -> {other}"
         elif isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub):
             yield node, "drop unary minus"
         elif (isinstance(node, ast.Constant) and type(node.value) in (int, float)
