@@ -1,6 +1,8 @@
 """Fuzzing: for any finite state and world the planner's control is finite and within limits.
 
 1,000 examples per property in the default suite; ``HYPOTHESIS_PROFILE=slow`` runs 10,000.
+About one coordinate in four of the robot and the goal is far from the map (up to 1e6 m, the
+plausible limit): far goals, and robots that left the map (issue 14).
 """
 
 import math
@@ -19,6 +21,8 @@ SLOW = os.environ.get("HYPOTHESIS_PROFILE") == "slow"
 EXAMPLES = 10_000 if SLOW else 1_000
 
 coordinate = st.floats(-6.0, 6.0, allow_nan=False)
+far = st.floats(-1.0e6, 1.0e6, allow_nan=False)
+position = st.one_of(coordinate, coordinate, coordinate, far)   # robot and goal coordinates
 speed = st.floats(-2.0, 3.0, allow_nan=False)          # measured values may exceed the limits
 circle = st.tuples(st.floats(-0.4, 0.4), st.floats(-0.3, 0.3), st.floats(0.05, 0.5))
 footprints = st.lists(circle, min_size=1, max_size=3).map(tuple)
@@ -42,10 +46,10 @@ def grids(draw):
 
 @st.composite
 def situations(draw):
-    state = RobotState(draw(coordinate), draw(coordinate), draw(st.floats(-10.0, 10.0)),
+    state = RobotState(draw(position), draw(position), draw(st.floats(-10.0, 10.0)),
                        draw(speed), draw(speed))
     world = World(draw(grids()), draw(st.lists(pedestrian, max_size=6)))
-    goal = (draw(coordinate), draw(coordinate))
+    goal = (draw(position), draw(position))
     return state, world, goal
 
 
