@@ -284,17 +284,29 @@ class NavigationFunction:
         Returns
         -------
         ndarray, shape (..., 2)
-            Central differences of :meth:`value` with step ``resolution``; without a grid the exact
-            ``(p - goal) / |p - goal|`` (0 at the goal).
+            Central differences of :meth:`value` with step ``resolution``, blended within one
+            ``resolution`` of the goal into ``(p - goal) / |p - goal|`` with the weight
+            ``|p - goal| / resolution`` on the differences; without a grid that Euclidean
+            gradient alone. 0 at the goal.
+
+        Notes
+        -----
+        Within a step of the goal the central differences straddle the minimum and their
+        direction is noise (measured: half of them more than 90 degrees off within 1 mm at
+        0.05 m cells, so the heading term jumped to ``0.2 * pi`` beside the goal). There the
+        values are the Euclidean distance to the goal by construction (the seeds), so its
+        gradient is the limit; the blend keeps the gradient continuous.
         """
         pts = _points("points", points)
+        delta = pts - self.goal
+        norm = np.linalg.norm(delta, axis=-1, keepdims=True)
+        euclid = np.divide(delta, norm, out=np.zeros_like(delta), where=norm > 0)
         if self.values is None:
-            delta = pts - self.goal
-            norm = np.linalg.norm(delta, axis=-1, keepdims=True)
-            return np.divide(delta, norm, out=np.zeros_like(delta), where=norm > 0)
+            return euclid
         h = self.working_grid.resolution
         dx = np.array([h, 0.0])
         dy = np.array([0.0, h])
         gx = (self.value(pts + dx) - self.value(pts - dx)) / (2 * h)
         gy = (self.value(pts + dy) - self.value(pts - dy)) / (2 * h)
-        return np.stack([gx, gy], axis=-1)
+        weight = np.minimum(norm / h, 1.0)
+        return weight * np.stack([gx, gy], axis=-1) + (1.0 - weight) * euclid

@@ -378,14 +378,17 @@ def _culled_distance(fp, poses, pred, radii, pts):
 @jit
 def _heading_error(nf, p, x, y, phi):
     """``costs.heading_error`` against the NF descent direction at the terminal pose."""
+    dx, dy = x - p[GOAL_X], y - p[GOAL_Y]
+    norm = math.sqrt(dx * dx + dy * dy)
+    gx, gy = (dx / norm, dy / norm) if norm > 0 else (0.0, 0.0)
     if p[NF_GRID] != 0.0:
+        # central differences, blended into the Euclidean direction within a step of the goal
         h = p[NF_RES]
-        gx = (_nf(nf, p, x + h, y) - _nf(nf, p, x - h, y)) / (2 * h)
-        gy = (_nf(nf, p, x, y + h) - _nf(nf, p, x, y - h)) / (2 * h)
-    else:
-        dx, dy = x - p[GOAL_X], y - p[GOAL_Y]
-        norm = math.sqrt(dx * dx + dy * dy)
-        gx, gy = (dx / norm, dy / norm) if norm > 0 else (0.0, 0.0)
+        weight = min(norm / h, 1.0)
+        fx = (_nf(nf, p, x + h, y) - _nf(nf, p, x - h, y)) / (2 * h)
+        fy = (_nf(nf, p, x, y + h) - _nf(nf, p, x, y - h)) / (2 * h)
+        gx = weight * fx + (1.0 - weight) * gx
+        gy = weight * fy + (1.0 - weight) * gy
     ex, ey = -gx, -gy
     if math.hypot(x - p[GOAL_X], y - p[GOAL_Y]) <= p[GOAL_TOL]:
         ex, ey = 0.0, 0.0
