@@ -13,9 +13,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotConfig, RobotState, SolverConfig
-from dsmpepc_nlp.solve.planner import Planner
-from dsmpepc_nlp.sim.simulate import OUTCOMES, Agent, FixedGoal, Pedestrian, Scenario, simulate
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
+from dsmpepc_nlp.sim.simulate import OUTCOMES, Agent, FixedGoal, Pedestrian, Scenario, simulate
+from dsmpepc_nlp.solve.planner import Planner
 
 SLOW = os.environ.get("HYPOTHESIS_PROFILE") == "slow"
 EXAMPLES = 10_000 if SLOW else 1_000
