@@ -309,16 +309,23 @@ def _static_pose(sdf, p, fp, pts, cos_h, sin_h, speed):
 
 @jit
 def _object_pose(fp, pts, cos_h, sin_h, speed, centres, radii, velocities, first, last,
-                 ttc_below):
+                 ttc_below, needed):
     """Distance and 1/TTC of one pose to the circles ``first:last`` of one object.
 
-    1/TTC is only computed when the distance is below ``ttc_below`` (else it is -inf: unused).
+    Circle pairs whose distance is at least ``needed`` are skipped without a square root (the
+    caller needs neither their distance nor their collision probability), so the distance is
+    exact below ``needed`` and may be inf above it. 1/TTC is only computed when the distance
+    is below ``ttc_below`` (else it is -inf: unused).
     """
     d, inv = math.inf, -math.inf
     for c in range(fp.shape[0]):
         for j in range(first, last):
             rx, ry = pts[c, 0] - centres[j, 0], pts[c, 1] - centres[j, 1]
-            d = min(d, math.sqrt(rx * rx + ry * ry) - fp[c, 2] - radii[j])
+            squared = rx * rx + ry * ry
+            limit = needed + fp[c, 2] + radii[j]
+            if limit > 0.0 and squared >= limit * limit:
+                continue
+            d = min(d, math.sqrt(squared) - fp[c, 2] - radii[j])
     if not d < ttc_below:
         return d, inv
     rvx, rvy = speed * cos_h, speed * sin_h
@@ -351,9 +358,11 @@ def _survival(p, fp, sdf, pred, radii, velocities, starts, poses, vs, survival, 
             nearest = min(nearest, d)
             if d < far_static:
                 q *= 1.0 - _collision_probability(d, inv, p[SIGMA_STATIC], p)
+        centres = pred[k]
         for o in range(starts.shape[0] - 1):
-            d, inv = _object_pose(fp, pts, cos_h, sin_h, speed, pred[k], radii, velocities,
-                                  starts[o], starts[o + 1], ttc_below)
+            d, inv = _object_pose(fp, pts, cos_h, sin_h, speed, centres, radii, velocities,
+                                  starts[o], starts[o + 1], ttc_below,
+                                  max(far_dynamic, nearest))
             nearest = min(nearest, d)
             if d < far_dynamic:
                 q *= 1.0 - _collision_probability(d, inv, p[SIGMA_DYNAMIC], p)
@@ -420,7 +429,7 @@ def _terminal_inverse_ttc(p, fp, sdf, centres, radii, velocities, x, y, phi, pts
         inv = _static_inverse_ttc(sdf, p, fp, pts, cos_h, sin_h, p[V_LIMIT])
     if radii.shape[0]:
         _, dyn = _object_pose(fp, pts, cos_h, sin_h, p[V_LIMIT], centres, radii, velocities, 0,
-                              radii.shape[0], math.inf)
+                              radii.shape[0], math.inf, -math.inf)
         inv = max(inv, dyn)
     return inv
 
