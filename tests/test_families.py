@@ -1,8 +1,12 @@
 """Generated scenario families: the geometry asked for is the geometry on the grid; save/load."""
 
+import json
+
 import numpy as np
 import pytest
 
+from dsmpepc_nlp import cli
+from dsmpepc_nlp.bench import claims
 from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.sim import families
 from dsmpepc_nlp.sim.scenario import load_scenario
@@ -86,6 +90,12 @@ def test_an_unknown_family_names_the_known_ones():
         families.generate("maze", 1.0, 1.0)
 
 
+@pytest.mark.parametrize("door", [0.35, 0.75, 1.05])
+def test_a_door_of_odd_cells_is_still_exact(door):
+    _, grid = families.generate("doorway", door, 0.0)
+    assert free_run(grid, y=4.1, around=4.0)[0] == pytest.approx(door, abs=1e-9)
+
+
 def test_cells_cover_the_grid():
     full = families.cells(["t-corridor"])
     f = families.FAMILIES["t-corridor"]
@@ -93,3 +103,89 @@ def test_cells_cover_the_grid():
     assert len(f.values) >= 8 and min(f.values) == 0.7 and max(f.values) == 2.0
     assert min(families.FAMILIES["narrow-corridor"].values) == 1.0
     assert max(families.FAMILIES["narrow-corridor"].values) == 2.2
+
+
+# ---------------------------------------------------------------------------------------------
+# the claim map (dsmpepc claims): tiny runs, the command's options, the verdicts
+
+
+def rates(success, deadlock=0.0, collision=0.0):
+    return {"success_rate": success, "deadlock_rate": deadlock, "collision_rate": collision,
+            "timeout_rate": 1.0 - success - deadlock - collision}
+
+
+@pytest.mark.parametrize("ds, mp, expected", [
+    (rates(1.0), rates(0.0, deadlock=1.0), "claim"),
+    (rates(0.8), rates(0.2, deadlock=0.2, collision=0.6), "ds-mpepc"),
+    (rates(1.0), rates(0.6, deadlock=0.4), "both pass"),
+    (rates(0.4, deadlock=0.6), rates(0.0, deadlock=1.0), "both fail"),
+    (rates(0.0, deadlock=1.0), rates(1.0), "mpepc"),
+    (rates(float("nan")), rates(1.0), None),
+])
+def test_verdict_of_a_cell(ds, mp, expected):
+    assert claims.verdict(ds, mp) == expected
+
+
+def test_example_prefers_a_ds_success_beside_an_mpepc_deadlock():
+    def row(scenario, solver, seed, variant, outcomes):
+        return {"scenario": scenario, "solver": solver, "seed": seed, "variant": variant,
+                "outcomes": outcomes, "status": "ok"}
+    rows = [row("a", "sampling", 0, "mpepc", "success"), row("a", "sampling", 0, "ds-mpepc",
+                                                              "deadlock"),
+            row("b", "nlp", 1, "mpepc", "deadlock"), row("b", "nlp", 1, "ds-mpepc", "success"),
+            row("c", "sampling", 0, "mpepc", "timeout"), row("c", "sampling", 0, "ds-mpepc",
+                                                             "timeout")]
+    assert claims.pick_example(rows) == ("b", "nlp", 1)
+    assert claims.pick_example(rows[:2]) == ("a", "sampling", 0)
+    assert claims.pick_example(rows[4:]) is None
+
+
+CLAIMS_ARGS = ["claims", "--families", "doorway", "--axis", "0.8,1.6", "--axis2", "1.5",
+               "--seeds", "0", "--solvers", "sampling", "--variants", "mpepc", "ds-mpepc",
+               "--samples", "8", "--duration", "0.3", "--workers", "1", "--json"]
+
+
+def test_claims_command_writes_tables_figure_scenarios_and_resumes(tmp_path, capsys):
+    out = tmp_path / "map"
+    assert cli.main([*CLAIMS_ARGS, "--out", str(out)]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["runs"] == 4 and summary["failed"] == 0
+    rows = json.loads((out / "claims.json").read_text())["rows"]
+    assert {(r["x"], r["variant"]) for r in rows} == {
+        (x, v) for x in (0.8, 1.6) for v in ("mpepc", "ds-mpepc")}
+    assert all(r["outcomes"] == "timeout" for r in rows), "0.3 s cannot reach the goal"
+    cells = json.loads((out / "claims_cells.json").read_text())["cells"]
+    assert len(cells) == 4 and {c["verdict"] for c in cells} == {"both fail"}
+    assert summary["verdicts"] == {"sampling": {"doorway": {"both fail": 2}}}
+    assert (out / "claims.csv").exists() and (out / "claims_cells.csv").exists()
+    assert (out / "claims_sampling.png").exists() and "example" not in summary
+    scenario = load_scenario(out / "scenarios" / "doorway-door0.80-offset1.50.yaml")
+    assert scenario.start_noise == families.START_NOISE
+    assert cli.main([*CLAIMS_ARGS, "--out", str(out)]) == 2  # a table is there
+    assert "--resume" in capsys.readouterr().err
+    assert cli.main([*CLAIMS_ARGS, "--out", str(out), "--resume"]) == 0
+    assert "4 already done, 0 to run" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("change, problem", [
+    (["--axis", "0"], "--axis"),
+    (["--axis", "a,b"], "--axis"),
+    (["--families", "maze"], "maze"),
+    (["--seeds", "x"], "--seeds"),
+    (["--variants", "orca"], "--variants"),
+    (["--duration", "-1"], "--duration"),
+    (["--axis", "0.05"], "door = 0.05"),
+    (["--axis", "0.83"], "multiple of 0.05"),
+    (["--axis2", "4"], "offset = 4.0"),
+])
+def test_claims_command_rejects_bad_options(tmp_path, capsys, change, problem):
+    argv = [*CLAIMS_ARGS, "--out", str(tmp_path / "o")]
+    for i, token in enumerate(argv):
+        if token == change[0]:
+            argv[i + 1:i + 2] = change[1:]
+            break
+    else:
+        argv += change
+    assert cli.main(argv) == 2
+    assert problem in capsys.readouterr().err
+    assert not (tmp_path / "o" / "claims.json").exists()

@@ -13,6 +13,7 @@ a folder that already holds a table is continued with ``--resume`` or replaced w
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import json
 import math
@@ -29,7 +30,7 @@ from ..core.progress import EpisodeProgress, say
 from ..sim.scenario import load_scenario
 from ..sim.simulate import simulate
 from ..viz import figures
-from . import barn, crowds, sweep
+from . import barn, claims, crowds, sweep
 from .crosscheck import crosscheck
 from .params import parse_params
 from .results import parse_indices
@@ -239,6 +240,75 @@ def run_sweep(args) -> dict:
                            overwrite=args.overwrite)
 
 
+def _values(name: str):
+    """An argparse ``type``: comma-separated geometry values, each a number > 0 (m)."""
+    check = options.number(0.0, low_open=True, high=100.0, unit=" m")
+
+    def convert(text: str) -> tuple:
+        values = tuple(check(part) for part in text.split(",") if part.strip())
+        if not values:
+            raise argparse.ArgumentTypeError(f"{text!r}: give at least one value")
+        return values
+
+    convert.__name__ = name
+    return convert
+
+
+def add_claims(p) -> None:
+    p.add_argument("--families", default=",".join(claims.families.FAMILIES),
+                   help="comma-separated families (default: all of "
+                        f"{', '.join(claims.families.FAMILIES)})")
+    p.add_argument("--variants", nargs="+", default=list(claims.CLAIM_VARIANTS),
+                   choices=PLANNER_VARIANTS)
+    p.add_argument("--solvers", nargs="+", default=list(claims.CLAIM_SOLVERS), choices=SOLVERS)
+    p.add_argument("--seeds", default="0-4", help="seeds: 0-4, 0,5,7 (default 0-4)")
+    p.add_argument("--quick", action="store_true",
+                   help="the small grid of each family (3 values of the first axis, one of the "
+                        "second)")
+    p.add_argument("--axis", type=_values("axis"), default=None, metavar="V1,V2,...",
+                   help="values of the first geometry axis (gap, width, door; m), replacing "
+                        "the families' grid")
+    p.add_argument("--axis2", type=_values("axis2"), default=None, metavar="V1,V2,...",
+                   help="values of the second geometry axis (width, length, offset; m)")
+    p.add_argument("--duration", type=options.number(0.0, low_open=True), default=None,
+                   help="cap on every episode's length, s (default: the family's)")
+    p.add_argument("--samples", type=options.positive, default=None,
+                   help="samples per plan of the sampling solver, >= 1 (default: SolverConfig's)")
+    p.add_argument("--no-examples", action="store_true",
+                   help="skip re-running one differing run for the example figure")
+    p.add_argument("--workers", type=options.positive, default=None,
+                   help="parallel worker processes, >= 1 (default: number of cores)")
+    p.add_argument("--out", default="results/claims", help="output folder (default "
+                   "results/claims)")
+    p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the table in --out, skipping runs already done")
+    p.add_argument("--overwrite", action="store_true", help="discard a table already in --out")
+
+
+def run_claims(args) -> dict:
+    names = [n for n in args.families.split(",") if n]
+    for name in names:
+        claims.families.family(name)
+    if not names:
+        raise InputError("--families: give at least one family")
+    for solver in set(args.solvers):
+        solver_config(solver)
+    cells = [(name, float(x), float(y)) for name in names
+             for y in (args.axis2 or _grid(name, args.quick)[1])
+             for x in (args.axis or _grid(name, args.quick)[0])]
+    settings = claims.ClaimSettings(n_samples=args.samples, duration=args.duration)
+    return claims.run_claims(cells, args.variants, args.solvers,
+                             parse_indices(args.seeds, "--seeds"), settings, args.out,
+                             workers=args.workers, resume=args.resume,
+                             overwrite=args.overwrite, examples=not args.no_examples)
+
+
+def _grid(name: str, quick: bool) -> tuple:
+    family = claims.families.family(name)
+    return (family.quick, family.quick2) if quick else (family.values, family.values2)
+
+
 def summary_text(summary: dict, indent: str = "") -> str:
     """A benchmark summary as ``key: value`` lines, nested dicts indented (never as JSON text)."""
     lines = []
@@ -300,3 +370,9 @@ def register(sub, scenario_options) -> None:
                        description="Run a parameter grid; tables and heatmaps.")
     add_sweep(p)
     p.set_defaults(func=_summarised(run_sweep))
+    p = sub.add_parser("claims", help="the claim map: variants x solvers on generated "
+                       "T-corridor, narrow-corridor and doorway geometry",
+                       description="Run the scenario families cell by cell; tables, a figure "
+                       "and an example where the variants differ.")
+    add_claims(p)
+    p.set_defaults(func=_summarised(run_claims))

@@ -130,7 +130,8 @@ def doorway(door: float, offset: float) -> tuple:
     to the side of the door's axis; its goal is on the axis, 2.5 m behind the wall."""
     width, wall_y = 8.0, 4.0
     centre = width / 2
-    x0, x1 = _snap(centre - door / 2), _snap(centre + door / 2)
+    x0 = _snap(centre - door / 2)
+    x1 = round(x0 + _snap(door), 6)
     grid = carve((width, 7.0), free=[(WALL, WALL, width - WALL, wall_y),
                                      (WALL, wall_y + 0.2, width - WALL, 7.0 - WALL),
                                      (x0, wall_y - 0.01, x1, wall_y + 0.21)])
@@ -159,18 +160,21 @@ class Family:
     axis2: str
     values2: tuple
     quick2: tuple
+    limits: tuple = ((0.1, 10.0), (0.1, 10.0))
+    """Allowed ``(low, high)`` of each axis, m: outside them a start or goal would leave the
+    map or the scene would no longer be the family's."""
 
 
 FAMILIES = {
     "t-corridor": Family("t-corridor", t_corridor, "gap",
                          (0.7, 0.85, 1.0, 1.2, 1.4, 1.6, 1.8, 2.0), (0.7, 1.2, 2.0),
-                         "width", (1.8, 2.6), (1.8,)),
+                         "width", (1.8, 2.6), (1.8,), ((0.1, 4.0), (0.8, 5.0))),
     "narrow-corridor": Family("narrow-corridor", narrow_corridor, "width",
                               (1.0, 1.2, 1.4, 1.6, 1.8, 2.0, 2.2), (1.0, 1.4, 2.2),
-                              "length", (12.6,), (12.6,)),
+                              "length", (12.6,), (12.6,), ((0.45, 5.0), (3.0, 40.0))),
     "doorway": Family("doorway", doorway, "door",
                       (0.7, 0.8, 0.9, 1.0, 1.2, 1.4, 1.6), (0.8, 1.2, 1.6),
-                      "offset", (1.5, 3.0), (1.5,)),
+                      "offset", (1.5, 3.0), (1.5,), ((0.1, 7.0), (0.0, 3.4))),
 }
 """Every family by name."""
 
@@ -192,7 +196,13 @@ def cell_name(name: str, x: float, y: float) -> str:
 def generate(name: str, x: float, y: float) -> tuple:
     """The cell ``(x, y)`` of family ``name``: ``(mapping, grid)``, the mapping in the YAML
     schema without its ``map`` key (:func:`save` writes both and checks them)."""
-    return family(name).build(float(x), float(y))
+    f = family(name)
+    for axis, value, (low, high) in zip((f.axis, f.axis2), (x, y), f.limits):
+        value = float(value)
+        if not (low <= value <= high) or abs(value - _snap(value)) > 1e-9:
+            raise InputError(f"family {name}: {axis} = {value!r}: must be a multiple of "
+                             f"{RESOLUTION} m from {low:g} to {high:g} m (the map's cells)")
+    return f.build(float(x), float(y))
 
 
 class _Dumper(yaml.SafeDumper):

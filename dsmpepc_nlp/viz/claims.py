@@ -1,0 +1,53 @@
+"""The claim map's figure: outcome rates of each variant against the geometry, per family.
+
+A view over the per-cell summary rows of :mod:`dsmpepc_nlp.bench.claims` (one solver): one
+column per family, one row per outcome (success, deadlock, collision); a line per variant, its
+line style telling the values of the family's second axis apart. Written atomically and closed.
+"""
+
+from __future__ import annotations
+
+import matplotlib.pyplot as plt
+
+from ..core.files import atomic_savefig
+
+VARIANT_COLOURS = {"mpepc": "tab:red", "ds-mpepc": "tab:blue", "pc-only": "tab:orange",
+                   "terminal-only": "tab:green"}
+OUTCOMES = ("success_rate", "deadlock_rate", "collision_rate")
+STYLES = ("-", "--", ":", "-.")
+
+
+def claim_map_figure(rows, path, title: str = "claim map"):
+    """Rates against the first geometry axis; ``rows`` are per-cell summary rows of one solver
+    (``family``, ``axis``, ``x``, ``axis2``, ``y``, ``variant`` and the rates)."""
+    names = list(dict.fromkeys(r["family"] for r in rows)) or ["(no runs)"]
+    fig, axes = plt.subplots(len(OUTCOMES), len(names), figsize=(4.2 * len(names), 7.5),
+                             squeeze=False, sharey=True)
+    for j, name in enumerate(names):
+        mine = [r for r in rows if r["family"] == name]
+        ys = sorted({r["y"] for r in mine})
+        for i, rate in enumerate(OUTCOMES):
+            ax = axes[i, j]
+            for variant in dict.fromkeys(r["variant"] for r in mine):
+                for k, y in enumerate(ys):
+                    line = sorted((r["x"], r[rate]) for r in mine
+                                  if r["variant"] == variant and r["y"] == y)
+                    label = variant if len(ys) == 1 else f"{variant}, {mine[0]['axis2']} {y:g}"
+                    ax.plot([p[0] for p in line], [p[1] for p in line], marker="o", ms=3,
+                            ls=STYLES[k % len(STYLES)], label=label,
+                            color=VARIANT_COLOURS.get(variant, "black"))
+            ax.set_ylim(-0.05, 1.05)
+            if j == 0:
+                ax.set_ylabel(rate.replace("_", " "))
+            if i == 0:
+                ax.set_title(name)
+            if i == len(OUTCOMES) - 1 and mine:
+                ax.set_xlabel(f"{mine[0]['axis']} (m)")
+        if mine:
+            axes[0, j].legend(fontsize=6)
+    fig.suptitle(title)
+    fig.tight_layout()
+    try:
+        return atomic_savefig(fig, path, dpi=110)
+    finally:
+        plt.close(fig)
