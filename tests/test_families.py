@@ -8,6 +8,7 @@ import pytest
 from dsmpepc_nlp import cli
 from dsmpepc_nlp.bench import claims
 from dsmpepc_nlp.core.errors import InputError
+from dsmpepc_nlp.core.geometry import footprint_points
 from dsmpepc_nlp.sim import families
 from dsmpepc_nlp.sim.scenario import load_scenario
 
@@ -189,3 +190,15 @@ def test_claims_command_rejects_bad_options(tmp_path, capsys, change, problem):
     assert cli.main(argv) == 2
     assert problem in capsys.readouterr().err
     assert not (tmp_path / "o" / "claims.json").exists()
+
+
+@pytest.mark.parametrize("name, x, y", families.cells(families.FAMILIES))
+def test_the_body_fits_at_every_start_and_goal(name, x, y):
+    """The footprint, headed as at the start, is clear of the walls at the start and the goal."""
+    doc, grid = families.generate(name, x, y)
+    for robot in doc["robots"]:
+        circles = np.array(robot["footprint"], dtype=float)
+        heading = robot["start"][2]
+        for point in (robot["start"][:2], robot["goal"]["position"]):
+            centres = footprint_points(np.array([*point, heading]), circles[:, :2])
+            assert np.min(grid.distance(centres) - circles[:, 2]) > 0.05, (robot["name"], point)

@@ -132,8 +132,8 @@ def doorway(door: float, offset: float) -> tuple:
     centre = width / 2
     x0 = _snap(centre - door / 2)
     x1 = round(x0 + _snap(door), 6)
-    grid = carve((width, 7.0), free=[(WALL, WALL, width - WALL, wall_y),
-                                     (WALL, wall_y + 0.2, width - WALL, 7.0 - WALL),
+    grid = carve((width, 8.0), free=[(WALL, WALL, width - WALL, wall_y),
+                                     (WALL, wall_y + 0.2, width - WALL, 8.0 - WALL),
                                      (x0, wall_y - 0.01, x1, wall_y + 0.21)])
     doc = {
         "name": cell_name("doorway", door, offset),
