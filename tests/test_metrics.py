@@ -10,6 +10,8 @@ import pytest
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
 from dsmpepc_nlp.core.world import OccupancyGrid
 from dsmpepc_nlp.sim.metrics import (
+    collision_kind,
+    contact_approach_speed,
     discomfort,
     episode_metrics,
     following_distance,
@@ -19,7 +21,9 @@ from dsmpepc_nlp.sim.metrics import (
     path_length,
     plan_times,
     run_length,
+    shortest_path_length,
     smoothness,
+    spl,
     time_to_goal,
 )
 from dsmpepc_nlp.sim.simulate import Agent, FixedGoal, Pedestrian, Scenario, simulate
@@ -106,3 +110,94 @@ def test_episode_metrics_are_json_safe_and_one_per_robot():
     assert len(rows) == 1 and rows[0]["outcome"] == "success"
     text = json.dumps(json_safe(rows), allow_nan=False)
     assert '"following_distance": null' in text
+
+
+# -- the crowd-navigation field's metrics: collision attribution and SPL ---------------------
+
+
+def contact_episode(robot_x, ped_x, n, dt=0.2, outcome="collision"):
+    """One round robot on y = 0 at ``robot_x(t)``, one pedestrian on y = 0 at ``ped_x(t)``."""
+    ep = straight_episode(n=n, dt=dt)
+    t = np.arange(n) * dt
+    ep.states[0, :, 0] = robot_x(t)
+    ep.states[0, :, 3] = np.gradient(robot_x(t), t)
+    ep.states[0, -1, 3:] = 0.0  # the loop stops a robot at its outcome
+    ped = np.zeros((n, 1, 2))
+    ped[:, 0, 0] = ped_x(t)
+    ep.ped_positions = ped
+    ep.outcomes, ep.outcome_times = [outcome], [float(t[-1])]
+    return ep
+
+
+def test_robot_driving_into_a_standing_human_is_at_fault():
+    # at 1 m/s toward a human standing at x = 2.5: contact (centres < 0.6 apart) at x = 2.0
+    ep = contact_episode(lambda t: t, lambda t: np.full_like(t, 2.5), n=11)
+    assert min_dynamic_clearance(ep, 0) < 0
+    assert contact_approach_speed(ep, 0) == pytest.approx(1.0)
+    assert collision_kind(ep, 0) == "at-fault"
+    assert episode_metrics(ep)[0]["collision_kind"] == "at-fault"
+
+
+def test_human_walking_into_a_stopped_robot_is_struck():
+    # the robot stands at the origin; the human walks at 1 m/s from x = 2 and touches at t = 1.6
+    ep = contact_episode(lambda t: np.zeros_like(t), lambda t: 2.0 - t, n=9)
+    assert min_dynamic_clearance(ep, 0) < 0
+    assert contact_approach_speed(ep, 0) == pytest.approx(0.0)
+    assert collision_kind(ep, 0) == "struck"
+
+
+def test_robot_moving_away_but_caught_up_is_struck_and_no_collision_has_no_kind():
+    # the robot drives away at 0.5 m/s, a faster human catches it from behind
+    ep = contact_episode(lambda t: 0.5 * t, lambda t: -1.5 + 1.5 * t, n=6)  # touch at t = 1
+    assert min_dynamic_clearance(ep, 0) < 0
+    assert contact_approach_speed(ep, 0) == pytest.approx(-0.5)
+    assert collision_kind(ep, 0) == "struck"
+    assert collision_kind(straight_episode(), 0) is None
+    assert math.isnan(contact_approach_speed(straight_episode(), 0))
+
+
+def test_driving_into_a_wall_is_at_fault():
+    ep = contact_episode(lambda t: t, lambda t: np.full_like(t, 50.0), n=11)
+    occ = np.zeros((20, 40), bool)
+    occ[:, 22:] = True  # a wall from x = 2.2 (cells of 0.1 m from x = 0)
+    ep = dataclasses.replace(ep, grid_occupied=occ, grid_resolution=0.1,
+                             grid_origin=np.array([0.0, -1.0]))
+    assert min_static_clearance(ep, 0) < 0
+    assert contact_approach_speed(ep, 0) == pytest.approx(1.0, abs=0.05)
+    assert collision_kind(ep, 0) == "at-fault"
+
+
+def l_shaped_episode(outcome):
+    """Start (0, 0), goal (3, 4): driven along x to (3, 0), then up to (3, 4) (7 m)."""
+    ep = straight_episode(n=15)
+    xy = np.concatenate([np.c_[np.linspace(0, 3, 7), np.zeros(7)],
+                         np.c_[np.full(8, 3.0), np.linspace(4 / 8, 4, 8)]])
+    ep.states[0, :, :2] = xy
+    ep.goals = np.tile([[[3.0, 4.0]]], (1, 15, 1))
+    ep.outcomes, ep.outcome_times = [outcome], [float(ep.times[-1])]
+    return ep
+
+
+def test_spl_on_a_hand_computed_path():
+    ep = l_shaped_episode("success")
+    assert path_length(ep, 0) == pytest.approx(7.0)
+    assert shortest_path_length(ep, 0) == pytest.approx(5.0)
+    assert spl(ep, 0) == pytest.approx(5.0 / 7.0)
+    assert spl(l_shaped_episode("timeout"), 0) == 0.0
+    assert spl(l_shaped_episode("collision"), 0) == 0.0
+    # ending inside the goal tolerance short of the goal: the path is shorter, SPL is 1
+    short = l_shaped_episode("success")
+    short.states[0, :, :2] = np.c_[np.zeros(15), np.linspace(0, 4.8, 15)]
+    short.goals[:] = (0.0, 5.0)
+    assert spl(short, 0) == 1.0
+
+
+def test_spl_with_a_map_uses_the_navigation_function():
+    ep = l_shaped_episode("success")
+    occ = np.zeros((60, 60), bool)
+    occ[15:25, 0:45] = True  # a wall between start and goal from x = -1 to 3.5 (y 0.5 to 1.5)
+    ep = dataclasses.replace(ep, grid_occupied=occ, grid_resolution=0.1,
+                             grid_origin=np.array([-1.0, -1.0]))
+    around = shortest_path_length(ep, 0)
+    assert around > 5.0 + 0.5  # the wall forces a detour beyond its end at x = 3.5
+    assert spl(ep, 0) == pytest.approx(around / max(7.0, around))

@@ -2,6 +2,12 @@
 
 Every metric of a robot is measured over its *run*: the states from the start up to and
 including the one at which its outcome was decided (afterwards it stands still).
+
+Besides our own figures these are the crowd-navigation field's (CrowdNav; Francis et al. 2023):
+success (any collision is a failure), collision split by who moved into whom
+(:func:`collision_kind`: ``at-fault`` when the robot's own velocity had a component toward the
+body it touched, ``struck`` when it was stopped or moving away), timeout, time to goal, path
+length, SPL (:func:`spl`), minimum distance, discomfort and jerk.
 """
 
 from __future__ import annotations
@@ -16,6 +22,12 @@ from ..core.world import World
 
 DISCOMFORT_GAP = 0.2
 """A pedestrian closer than this (gap between footprint and pedestrian circle, m) is discomfort."""
+AT_FAULT_SPEED = 0.01
+"""At contact, a robot whose velocity toward the touched body exceeds this (m/s) is at fault;
+at or below it the robot counts as stopped (our choice: above numerical noise, below any
+deliberate creep)."""
+COLLISION_KINDS = ("at-fault", "struck")
+"""The two kinds of collision :func:`collision_kind` tells apart."""
 
 
 def run_length(episode, robot: int) -> int:
@@ -108,6 +120,110 @@ def following_distance(episode, robot: int) -> float:
     return float(np.mean(np.linalg.norm(episode.states[robot, :stop, :2] - target, axis=-1)))
 
 
+def _bodies_at(episode, robot, k):
+    """Centres (M, 2) and radii (M,) of every circular body but ``robot``'s at state ``k``."""
+    centres = [episode.ped_positions[k]] if episode.ped_radii.size else []
+    radii = [episode.ped_radii] if episode.ped_radii.size else []
+    for j in range(episode.n_robots):
+        if j != robot:
+            fp = episode.footprint(j)
+            centres.append(footprint_points(episode.states[j, k, :3], fp[:, :2]))
+            radii.append(fp[:, 2])
+    for parked in episode.meta.get("parked", []):
+        fp = np.asarray(parked["footprint"], dtype=float)
+        centres.append(footprint_points(np.asarray(parked["pose"], dtype=float), fp[:, :2]))
+        radii.append(fp[:, 2])
+    if not centres:
+        return np.zeros((0, 2)), np.zeros(0)
+    return np.concatenate(centres).reshape(-1, 2), np.concatenate(radii)
+
+
+def _toward_map(grid, point) -> tuple:
+    """Gap from ``point`` to the map and the unit direction toward the nearest obstacle."""
+    world, h = World(grid), grid.resolution
+    probe = point + np.array([[0, 0], [h, 0], [-h, 0], [0, h], [0, -h]], dtype=float)
+    d = world.static_distance(probe)
+    gradient = np.array([d[1] - d[2], d[3] - d[4]]) / (2 * h)
+    norm = float(np.hypot(*gradient))
+    return float(d[0]), (-gradient / norm if norm > 1e-12 else np.zeros(2))
+
+
+def contact_approach_speed(episode, robot: int) -> float:
+    """Speed (m/s) of the robot toward the body it touched at its outcome; NaN if no collision.
+
+    The touched body is the one with the smallest gap at the outcome state (a pedestrian,
+    another robot, a parked robot or the map). The robot's velocity is that of its nearest
+    footprint circle over the last step (the logged state at the outcome already has v = 0, the
+    robot having stopped there), so turning counts too.
+    """
+    if episode.outcomes[robot] != "collision":
+        return math.nan
+    k = run_length(episode, robot) - 1
+    fp = episode.footprint(robot)
+    here = footprint_points(episode.states[robot, k, :3], fp[:, :2])            # (C, 2)
+    if k > 0:
+        before = footprint_points(episode.states[robot, k - 1, :3], fp[:, :2])
+        velocity = (here - before) / (episode.times[k] - episode.times[k - 1])
+    else:
+        x, y, phi, v = episode.states[robot, 0, :4]
+        velocity = np.tile([v * math.cos(phi), v * math.sin(phi)], (len(here), 1))
+    best_gap, best_dir, best_c = math.inf, np.zeros(2), 0
+    centres, radii = _bodies_at(episode, robot, k)
+    if radii.size:
+        offset = centres[None, :, :] - here[:, None, :]                       # (C, M, 2)
+        distance = np.linalg.norm(offset, axis=-1)
+        gaps = distance - fp[:, 2][:, None] - radii[None, :]
+        c, m = np.unravel_index(int(np.argmin(gaps)), gaps.shape)
+        best_gap, best_c = float(gaps[c, m]), int(c)
+        best_dir = offset[c, m] / max(float(distance[c, m]), 1e-12)
+    grid = episode.grid
+    if grid is not None:
+        for c, point in enumerate(here):
+            d, direction = _toward_map(grid, point)
+            if d - fp[c, 2] < best_gap:
+                best_gap, best_dir, best_c = d - fp[c, 2], direction, c
+    return float(np.dot(velocity[best_c], best_dir))
+
+
+def collision_kind(episode, robot: int) -> str | None:
+    """``"at-fault"``, ``"struck"`` or None (the outcome is not a collision).
+
+    At fault: at contact the robot moved toward the touched body faster than
+    :data:`AT_FAULT_SPEED` (:func:`contact_approach_speed`); struck: it was stopped or moving
+    away, so the other body closed the gap.
+    """
+    speed = contact_approach_speed(episode, robot)
+    if math.isnan(speed):
+        return None
+    return "at-fault" if speed > AT_FAULT_SPEED else "struck"
+
+
+def shortest_path_length(episode, robot: int) -> float:
+    """Shortest path from the start to the goal, m: the straight line without a map, the
+    navigation function's value at the start (the robot's inflation) with one; NaN for a
+    follow goal."""
+    if episode.meta["goal_kinds"][robot] != "fixed":
+        return math.nan
+    start, goal = episode.states[robot, 0, :2], episode.goals[robot, 0]
+    grid = episode.grid
+    if grid is None:
+        return float(np.hypot(*(goal - start)))
+    inflation = float(np.max(episode.footprint(robot)[:, 2]))  # RobotConfig.inflation_radius
+    return float(World(grid).navigation(goal, inflation).value(start))
+
+
+def spl(episode, robot: int) -> float:
+    """Success weighted by path length (Anderson et al. 2018): ``S * l / max(p, l)`` with ``S``
+    1 for a success, ``l`` the :func:`shortest_path_length` and ``p`` the driven
+    :func:`path_length`; NaN for a follow goal."""
+    shortest = shortest_path_length(episode, robot)
+    if math.isnan(shortest):
+        return math.nan
+    if episode.outcomes[robot] != "success":
+        return 0.0
+    return float(shortest / max(path_length(episode, robot), shortest, 1e-12))
+
+
 def plan_times(episode, robot: int) -> tuple:
     """``(median, 95th percentile)`` wall time of the robot's plans, s."""
     times = episode.plan_time[robot][episode.active[robot]]
@@ -125,6 +241,10 @@ def robot_metrics(episode, robot: int) -> dict:
         "robot": episode.meta["robots"][robot],
         "outcome": episode.outcomes[robot],
         "outcome_time": float(episode.outcome_times[robot]),
+        "collision_kind": collision_kind(episode, robot),
+        "contact_approach_speed": contact_approach_speed(episode, robot),
+        "spl": spl(episode, robot),
+        "shortest_path_length": shortest_path_length(episode, robot),
         "time_to_goal": time_to_goal(episode, robot),
         "path_length": path_length(episode, robot),
         "min_static_clearance": min_static_clearance(episode, robot),
