@@ -81,6 +81,9 @@ def test_benchmark_two_variants_and_resume(tmp_path, capsys):
     assert bench_cli.main(argv) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["episodes"] == 2 and "collision_rate" in summary
+    for variant in summary["variants"].values():  # the fair split is in every crowd table
+        assert variant["at_fault_rate"] + variant["struck_rate"] == variant["collision_rate"]
+        assert 0.0 <= variant["spl"] <= 1.0
     assert set(summary["variants"]) == {"ds-mpepc", "orca"}
     assert bench_cli.main(argv + ["--resume", "--episodes", "3"]) == 0
     captured = capsys.readouterr()
@@ -114,3 +117,14 @@ def test_summary_ignores_runs_that_met_no_pedestrian():
     assert summary["min_distance_mean"] == pytest.approx(0.2)
     assert summary["min_distance"] == -0.1 and summary["episodes_with_pedestrians"] == 2
     assert summary["time_to_goal"] == 6.0 and summary["collision_rate"] == pytest.approx(1 / 3)
+
+
+def test_summary_splits_collisions_by_fault():
+    rows = [{"outcome": "collision", "collision_kind": "at-fault", "spl": 0.0},
+            {"outcome": "collision", "collision_kind": "struck", "spl": 0.0},
+            {"outcome": "collision", "collision_kind": "struck", "spl": 0.0},
+            {"outcome": "success", "collision_kind": None, "spl": 0.8}]
+    summary = crowds.summarise(rows)
+    assert summary["collision_rate"] == 0.75 and summary["success_rate"] == 0.25
+    assert summary["at_fault_rate"] == 0.25 and summary["struck_rate"] == 0.5
+    assert summary["spl"] == pytest.approx(0.2)

@@ -280,11 +280,7 @@ def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int) 
                 solver = replace(solver, n_samples=settings.n_samples)
             episode_log = simulate(scenario, PlannerConfig.variant(variant), solver, rng,
                                    record_trajectories=False)
-        m = episode_metrics(episode_log)[0]
-        row.update(outcome=m["outcome"], time=m["outcome_time"],
-                   time_to_goal=m["time_to_goal"], path_length=m["path_length"],
-                   discomfort=m["discomfort"], min_distance=m["min_dynamic_clearance"],
-                   plan_time_median=m["plan_time_median"], plan_time_p95=m["plan_time_p95"])
+        row.update(crowd_fields(episode_metrics(episode_log)[0]))
     except ImportError:
         raise
     except Exception as exc:
@@ -293,14 +289,38 @@ def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int) 
     return row
 
 
+def crowd_fields(m: dict) -> dict:
+    """The fields of a crowd benchmark's row from one robot's metrics (``robot_metrics``).
+
+    Shared by every crowd benchmark (ETH/UCY replay, CrowdNav protocol) so that their tables
+    have the same columns: outcome, collision kind (at-fault / struck), times, SPL, distances,
+    discomfort, jerk and plan time.
+    """
+    return dict(outcome=m["outcome"], collision_kind=m["collision_kind"],
+                time=m["outcome_time"], time_to_goal=m["time_to_goal"],
+                path_length=m["path_length"], spl=m["spl"], discomfort=m["discomfort"],
+                min_distance=m["min_dynamic_clearance"], jerk=m["mean_linear_jerk"],
+                plan_time_median=m["plan_time_median"], plan_time_p95=m["plan_time_p95"])
+
+
 def summarise(rows) -> dict:
-    """CrowdNav-style figures of a list of rows (one variant)."""
+    """CrowdNav-style figures of a list of rows (one variant).
+
+    ``success_rate`` counts any collision as a failure; ``collision_rate`` is split into
+    ``at_fault_rate`` and ``struck_rate`` (:func:`~dsmpepc_nlp.sim.metrics.collision_kind`).
+    ``spl`` is the mean over all episodes (0 for a failure), ``time_to_goal`` over successes.
+    """
     # A gap near OFFSTAGE means no pedestrian was on stage while the robot ran: not a distance.
     met = [r for r in rows if r.get("min_distance") is not None
            and r["min_distance"] < OFFSTAGE[0] / 10]
     gaps = [r["min_distance"] for r in met]
-    return {"episodes": len(rows), **outcome_rates(r["outcome"] for r in rows),
+    n = len(rows)
+    kinds = [r.get("collision_kind") for r in rows]
+    return {"episodes": n, **outcome_rates(r["outcome"] for r in rows),
+            "at_fault_rate": kinds.count("at-fault") / n if n else math.nan,
+            "struck_rate": kinds.count("struck") / n if n else math.nan,
             "time_to_goal": mean(rows, "time_to_goal", lambda r: r["outcome"] == "success"),
+            "spl": mean(rows, "spl"), "jerk": mean(rows, "jerk"),
             "discomfort": mean(rows, "discomfort"),
             "min_distance_mean": mean(met, "min_distance"),
             "episodes_with_pedestrians": len(met),
