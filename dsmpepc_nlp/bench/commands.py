@@ -1,10 +1,10 @@
 """The benchmark commands of ``dsmpepc``, each an ``add_arguments(parser)`` / ``run(args)`` pair.
 
 ``crosscheck`` (NLP vs sampling on every cycle of an episode), ``bench`` (plan time on the demo
-scene), ``benchmark barn | crowd | scenarios`` and ``sweep``. :func:`register` adds them to the
-one parser of :mod:`dsmpepc_nlp.cli`, which dispatches to ``run`` and owns the error policy:
-every option is checked by its type before anything runs or is stored, and bad input is an
-:class:`~dsmpepc_nlp.core.errors.InputError` (one line on stderr, exit 2).
+scene), ``benchmark barn | crowd | crowdnav | scenarios`` and ``sweep``. :func:`register` adds
+them to the one parser of :mod:`dsmpepc_nlp.cli`, which dispatches to ``run`` and owns the
+error policy: every option is checked by its type before anything runs or is stored, and bad
+input is an :class:`~dsmpepc_nlp.core.errors.InputError` (one line on stderr, exit 2).
 
 Results of the long benchmarks go to ``--out`` (one table per run, written after every row);
 a folder that already holds a table is continued with ``--resume`` or replaced with
@@ -30,7 +30,7 @@ from ..core.progress import EpisodeProgress, say
 from ..sim.scenario import load_scenario
 from ..sim.simulate import simulate
 from ..viz import figures
-from . import barn, claims, crowds, sweep
+from . import barn, claims, crowdnav, crowds, sweep
 from .crosscheck import crosscheck
 from .params import parse_params
 from .results import parse_indices
@@ -119,7 +119,7 @@ def run_timing(args) -> int:
 # benchmark barn | crowd | scenarios, sweep
 
 
-def _table_options(parser, out_default: str) -> None:
+def _table_options(parser, out_default: str, solver_default: str = "nlp") -> None:
     parser.add_argument("--workers", type=options.positive, default=None,
                         help="parallel worker processes, >= 1 (default: number of cores)")
     parser.add_argument("--out", default=out_default, help=f"output folder (default {out_default})")
@@ -128,8 +128,8 @@ def _table_options(parser, out_default: str) -> None:
                         help="continue the table in --out, skipping runs already done")
     parser.add_argument("--overwrite", action="store_true",
                         help="discard a table already in --out")
-    parser.add_argument("--solver", default="nlp", choices=SOLVERS,
-                        help="planner solver (default nlp)")
+    parser.add_argument("--solver", default=solver_default, choices=SOLVERS,
+                        help=f"planner solver (default {solver_default})")
     parser.add_argument("--samples", type=options.positive, default=None,
                         help="samples per plan of the sampling solver, >= 1 "
                              "(default: SolverConfig's)")
@@ -196,6 +196,34 @@ def run_crowd(args) -> dict:
     return crowds.run_benchmark(settings, args.variants, args.episodes, args.seed, args.out,
                                 workers=args.workers, resume=args.resume,
                                 overwrite=args.overwrite)
+
+
+def add_crowdnav(p) -> None:
+    p.add_argument("--scene", default="circle", choices=crowdnav.SCENES,
+                   help="circle or square crossing (default circle)")
+    p.add_argument("--robot", default="invisible", choices=crowdnav.SETTINGS,
+                   help="whether the humans see the robot (default invisible, the standard)")
+    p.add_argument("--episodes", type=options.positive, default=500)
+    p.add_argument("--seed", type=options.seed, default=0)
+    p.add_argument("--humans", type=options.positive, default=crowdnav.N_HUMANS)
+    p.add_argument("--variants", nargs="+", default=["mpepc", "ds-mpepc"],
+                   help=f"{', '.join(PLANNER_VARIANTS)}, orca")
+    p.add_argument("--duration", type=options.number(0.0, low_open=True),
+                   default=crowdnav.TIME_LIMIT,
+                   help=f"episode length, s (default {crowdnav.TIME_LIMIT:g})")
+    # the sampler until the NLP is fast enough for 500 episodes; the summary states the solver
+    _table_options(p, "results/crowdnav", solver_default="sampling")
+
+
+def run_crowdnav(args) -> dict:
+    settings = crowdnav.CrowdNavSettings(scene=args.scene, setting=args.robot,
+                                         humans=args.humans, solver=args.solver,
+                                         n_samples=args.samples, duration=args.duration)
+    if args.solver != "sampling":
+        solver_config(args.solver)  # fail early when the NLP cannot be loaded
+    return crowdnav.run_benchmark(settings, args.variants, args.episodes, args.seed, args.out,
+                                  workers=args.workers, resume=args.resume,
+                                  overwrite=args.overwrite)
 
 
 def _grid_options(p, out_default: str) -> None:
@@ -361,6 +389,8 @@ def register(sub, scenario_options) -> None:
             ("barn", "BARN Challenge worlds (static clutter, Jackal)", add_barn, run_barn),
             ("crowd", "ETH/UCY pedestrians replayed around a crossing robot", add_crowd,
              run_crowd),
+            ("crowdnav", "CrowdNav protocol: circle or square crossing among ORCA humans",
+             add_crowdnav, run_crowdnav),
             ("scenarios", "planner variants (and ORCA) on YAML scenarios", add_scenarios,
              run_scenarios)):
         p = kinds.add_parser(name, help=text)
