@@ -42,3 +42,17 @@ def test_robot_drives_toward_a_goal_1_km_away_and_leaves_the_map_behind():
         state = RobotState(x, y, phi, *plan.control)
     assert state.x > 2.0 + 2.0 + 1.0                       # past the map and its margin
     assert math.dist(state.pose[:2], goal) < start_distance - 0.5 * 50 * dt * config.robot.v_limit
+
+
+def test_a_simulated_robot_driving_to_a_far_goal_is_not_called_deadlocked():
+    # The deadlock rule measures progress on the navigation function; on the map's window
+    # alone a robot that left the map toward a far goal seemed to lose ground and was stopped
+    # as "deadlock" after 10 s, about 10 m out.
+    from dsmpepc_nlp.sim.simulate import Agent, FixedGoal, Scenario, simulate
+
+    scenario = Scenario("far", (Agent("r", RobotState(0.3, 0.5, 0.0), FixedGoal((1000.0, 0.5))),),
+                        small_map(), duration=16.0)
+    episode = simulate(scenario, PlannerConfig(), SolverConfig.sampling(n_samples=128),
+                       np.random.default_rng(0), record_trajectories=False)
+    assert episode.outcomes == ["timeout"]
+    assert episode.states[0, -1, 0] > 10.0

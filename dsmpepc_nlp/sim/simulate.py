@@ -139,9 +139,13 @@ class _Loop:
 
     def nf_value(self, i):
         goal = self.agents[i].goal
+        # The planner's window (around the robot for a goal beyond the map), so progress toward
+        # a far goal keeps counting once the robot has left the map.
+        config, position = self.configs[i], self.states[i][:2]
         nav = self.base_world.navigation(np.asarray(goal.position, dtype=float),
-                                         self.configs[i].robot.inflation_radius)
-        return float(nav.value(self.states[i][:2]))
+                                         config.robot.inflation_radius, near=position,
+                                         reach=config.reach)
+        return float(nav.value(position))
 
     def collided(self, i, points, radii, ped_pos) -> bool:
         """Robot ``i``'s footprint overlaps the map, a pedestrian, a robot or a parked robot."""
