@@ -63,8 +63,8 @@ def test_newton_nlp_solver_records_are_finite_and_in_the_box():
     from dsmpepc_nlp.core.world import DynamicObstacle, World
 
     cfg = PlannerConfig()
-    solver = NlpSolver(cfg, SolverConfig(method="newton", max_iter=15),
-                       GraphSizes(max_objects=3, near_objects=2), n_screen=4)
+    solver = NlpSolver(cfg, SolverConfig(method="newton", max_iter=15, n_screen=4),
+                       GraphSizes(max_objects=3, near_objects=2))
     world = World(None, [DynamicObstacle.pedestrian([2.5, 0.6], [-0.4, 0.0])])
     state, goal = RobotState(0.0, 0.0, 0.0), np.array([5.0, 0.0])
     records = solver.solve(Cycle.prepare(state, world, goal, cfg),

@@ -153,7 +153,7 @@ def test_wall_plane_inverse_ttc_matches_ray_march_head_on():
 
 
 def test_solve_returns_finite_records_within_bounds():
-    solver = NlpSolver(CONFIG, SolverConfig(n_spread=2, max_iter=15), SMALL, n_screen=4)
+    solver = NlpSolver(CONFIG, SolverConfig(n_spread=2, max_iter=15, n_screen=4), SMALL)
     state, world, goal = RobotState(0.0, 0.0, 0.0), _open_world(), np.array([5.0, 0.0])
     starts = structured_starts(state, goal, CONFIG)
     records = solver.solve(Cycle.prepare(state, world, goal, CONFIG), starts)
@@ -177,7 +177,7 @@ def test_solve_returns_finite_records_within_bounds():
     _walled_world(),
 ], ids=["empty", "more-than-k-max", "two-circle-robot", "map-only"])
 def test_solve_survives_unusual_worlds(world):
-    solver = NlpSolver(CONFIG, SolverConfig(n_spread=0, max_iter=8), SMALL, n_screen=4)
+    solver = NlpSolver(CONFIG, SolverConfig(n_spread=0, max_iter=8, n_screen=4), SMALL)
     state, goal = RobotState(0.0, 0.0, 0.0), np.array([4.0, 0.0])
     records = solver.solve(Cycle.prepare(state, world, goal, CONFIG),
                            structured_starts(state, goal, CONFIG))
@@ -220,7 +220,9 @@ def test_hessian_is_finite_at_stop_and_in_collision():
     shapes = nlp_graph.parameter_shapes(CONFIG, SMALL)
     blocks = [ca.SX.sym(n, *shapes[n]) for n in nlp_graph.PARAMETER_NAMES]
     hess = ca.Function("h", [z, *blocks], [ca.hessian(f(z, *blocks)[0], z)[0]])
-    inside = RobotState(0.6, 6.0, 0.0)                 # overlapping the outer wall at x = 0.2
+    inside = RobotState(0.4, 6.0, 0.0)                 # overlapping the outer wall at x = 0.2
+    radius = CONFIG.robot.footprint[0][2]
+    assert world.static_distance(np.array([inside.x, inside.y])) < radius - 0.05
     for s, zi in ((state, [2.0, 0.0, 0.0, 0.0]), (inside, [2.0, 0.0, 0.0, 0.5])):
         params = nlp_graph.pack_parameters(s, world, goal, CONFIG, SMALL, reference=zi)
         value = np.array(hess(zi, *(params[n] for n in nlp_graph.PARAMETER_NAMES)))

@@ -451,16 +451,51 @@ class SolverConfig:
     parallel_rows: int = 64
     """Smallest batch the compiled exact evaluator spreads over every core; smaller batches run
     on the calling thread, where waking the thread pool would cost more than it saves."""
+    n_screen: int = 256
+    """Low-discrepancy z costed exactly with the named starts before any solve (the landscape
+    is multimodal: the NLP only runs from the best of them)."""
+    n_solved: int = 0
+    """Starts the NLP runs from (the warm start, then the best distinct others); 0 chooses 3
+    for IPOPT and 2 for the other methods."""
+    distinct: float = 0.05
+    """Two starts closer than this share of the box (max norm) count as one."""
+    relinearise_radius: float = 0.3
+    """Largest distance (m) between a solution's poses and the reference its local map and NF
+    models were taken along before they are re-taken and the start solved again."""
+    max_outer: int = 2
+    """Solves per start at most (the first plus re-linearisations)."""
+    fd_step: float = 1e-6
+    """Forward-difference step of the Hessian of the gradient, as a share of each variable's
+    range (``newton``)."""
+    newton_hessian: str = "differences"
+    """Hessian of ``newton``: ``differences`` of the gradient or the ``exact`` SX Hessian."""
+    trust_radius: float = 0.25
+    """Initial trust radius of ``newton``, as a share of each variable's range."""
+    soft_turn: float = 0.6
+    """|delta| of the soft-turn starts, rad (about a third of the box)."""
+    hard_turn: float = 1.5
+    """|delta| of the hard-turn starts, rad (near the box's edge)."""
+    turn_distance: float = 2.0
+    """Target distance r of the turn starts, m."""
 
     def __post_init__(self):
         if self.method not in SOLVER_METHODS:
             _fail("SolverConfig", "method", self.method, f"one of {', '.join(SOLVER_METHODS)}")
         for name, low in (("max_iter", 1), ("n_spread", 0), ("n_samples", 1), ("seed", 0),
-                          ("pair_budget", 1), ("parallel_rows", 1)):
+                          ("pair_budget", 1), ("parallel_rows", 1),
+                          ("n_screen", 0), ("n_solved", 0), ("max_outer", 1)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
                 _fail("SolverConfig", name, value, f"an integer >= {low}")
-        _validate_fields(self, {"tol": dict(low=0.0, low_open=True)})
+        positive = dict(low=0.0, low_open=True)
+        _validate_fields(self, {"tol": positive, "distinct": dict(low=0.0, high=1.0),
+                                "relinearise_radius": positive, "fd_step": positive,
+                                "trust_radius": dict(low=0.0, low_open=True, high=1.0),
+                                "soft_turn": dict(low=0.0), "hard_turn": dict(low=0.0),
+                                "turn_distance": positive})
+        if self.newton_hessian not in ("differences", "exact"):
+            _fail("SolverConfig", "newton_hessian", self.newton_hessian,
+                  "'differences' or 'exact'")
         try:
             options = tuple((str(k), v) for k, v in
                             (self.options.items() if isinstance(self.options, dict)

@@ -1,27 +1,12 @@
-"""The DS-MPEPC NLP: the smooth cost graph solved by IPOPT (or SQP) from several starts.
+"""The multi-start NLP over z: screen many starts exactly, solve from the best few.
 
-The graph (``nlp_graph.py``) and the ``nlpsol`` instances are built once per configuration in
-:class:`NlpSolver`; :meth:`NlpSolver.solve` only packs parameters and runs the starts. The
-verdict on a start is its exact cost, taken by the :class:`~dsmpepc_nlp.planner.Planner`.
-
-Solver settings (measured with ``python -m dsmpepc_nlp.benchmark``; the design and numbers are
-in ``nlp_graph.py``'s module docstring): every start is costed exactly first (batched numpy,
-plus 256 screening samples), the NLP runs from the warm start and the 2 best distinct others
-(1 other for ``sqpmethod`` and ``newton``), each with local models along its own rollout,
-re-taken once when the solution leaves their trust radius. IPOPT uses the exact SX Hessian;
-the warm start uses IPOPT's warm-start options and the bound multipliers of the last cycle.
-``fatrop`` builds (``structure_detection: none``) and solves this 4-variable problem, but with
-more iterations (40-60) and no gain in time over IPOPT.
-
-``newton`` (:mod:`~dsmpepc_nlp.newton`) is the fast method: a trust-region Newton method on the
-4-D box with the exact box-QP step, objective / gradient / forward-difference Hessian from
-CasADi ``Function`` calls (0.07 / 0.13 / 0.65 ms), ~10-15 steps per solve. Why not
-``sqpmethod``: printed on one cycle, its iterates jumped across the whole box (steps of 2-7 in
-z), its line search failed ("3F") and the step was taken anyway (non-monotone merit function,
-``merit_memory`` 4), and the solves ended on the flat stop face (v_max = 0, gradient 0) or at
-their start: cross-check gap median +1.46, 0 % within 0.01. ``merit_memory: 1`` and
-``max_iter_ls: 8`` (set below) bring it to gap median -0.20 and 65 % within 0.01; the trust
-region of ``newton`` brings it to 95 %.
+:class:`NlpSolver` holds, per configuration, the smooth cost graph (``nlp_graph.py``) and the
+solvers built once from it (CasADi ``nlpsol`` plugins, or the trust-region Newton method of
+``newton.py``); :meth:`NlpSolver.solve` screens the named starts and ``n_screen`` low-discrepancy
+z with the exact batched cost, runs the solver from the warm start and the best distinct others
+(``n_solved``), and returns one :class:`~dsmpepc_nlp.solve.records.StartRecord` per start, each
+with its exact cost: the verdict stays the exact cost. Every knob is a ``SolverConfig`` field.
+Why these settings, and what they measured, is in ``docs/nlp.md``.
 """
 
 from __future__ import annotations
@@ -37,6 +22,7 @@ import casadi as ca
 import numpy as np
 
 from ..core.config import PlannerConfig, RobotState, SolverConfig
+from ..core.control_law import rollout
 from ..core.errors import InputError
 from .newton import minimize
 from .nlp_graph import (
@@ -47,6 +33,7 @@ from .nlp_graph import (
     pack_parameters,
     parameter_shapes,
 )
+from .records import StartRecord
 from .sampling import box_samples, evaluate_batch
 
 __all__ = ["NlpSolver", "cost_function", "pack_parameters", "GraphSizes", "PARAMETER_NAMES",
@@ -130,34 +117,19 @@ def _jit_options(config: PlannerConfig, sizes: GraphSizes, directory: str) -> di
             "jit_options": {"flags": ["-O2"], "verbose": False}}
 
 
-RELINEARISE_RADIUS = 0.3
-"""Largest distance (m) between a solution's poses and the reference its local models were
-taken along before the models are re-taken along the solution and the start re-solved."""
-NEWTON_HESSIAN = "differences"
-"""Hessian of the ``newton`` method: ``differences`` (forward differences of the SX gradient,
-0.65 ms per Hessian) or ``exact`` (the SX Hessian, 247k instructions, 1.2 ms); the same plans
-and iteration counts on the demo scene."""
-FD_STEP = 1e-6
-"""Forward-difference step of the Hessian of the gradient, as a share of each variable's range."""
-MAX_OUTER = 2
-"""Solves per start at most (the first plus re-linearisations)."""
-_DISTINCT = 0.05
-"""Two starts closer than this share of the box (max norm) count as the same start."""
-
-
-def _newton_functions(z, flat, objective, extra, span) -> tuple:
+def _newton_functions(z, flat, objective, extra, span, solver: SolverConfig) -> tuple:
     """``(f, fgh)`` for :func:`~dsmpepc_nlp.newton.minimize`: the objective alone, and
-    objective, gradient and Hessian (``NEWTON_HESSIAN``: ``exact`` SX, or ``differences``
-    of the gradient at 5 points in one mapped call)."""
+    objective, gradient and Hessian (``solver.newton_hessian``: ``exact`` SX, or
+    ``differences`` of the gradient at 5 points in one mapped call)."""
     f = ca.Function("dsmpepc_f", [z, flat], [objective], extra)
-    if NEWTON_HESSIAN == "exact":
+    if solver.newton_hessian == "exact":
         hessian, gradient = ca.hessian(objective, z)
         return f, ca.Function("dsmpepc_fgh", [z, flat], [objective, gradient, hessian],
                               extra)
     gradient = ca.Function("dsmpepc_fg", [z, flat], [objective, ca.gradient(objective, z)],
                            extra)
     mapped = gradient.map(5)
-    step = FD_STEP * span
+    step = solver.fd_step * span
     points = np.column_stack([np.zeros(4), np.diag(step)])
 
     def fgh(zk, p):
@@ -186,7 +158,7 @@ def _build(config: PlannerConfig, solver: SolverConfig, sizes: GraphSizes, jit_d
     try:
         if plugin == "newton":
             span = np.array(config.z_upper, dtype=float) - np.array(config.z_lower, dtype=float)
-            newton = _newton_functions(z, flat, nlp["f"], extra, span)
+            newton = _newton_functions(z, flat, nlp["f"], extra, span, solver)
         else:
             _, options = _plugin_options(solver, warm=False)
             cold = warm = ca.nlpsol("dsmpepc_cold", plugin, nlp, {**options, **extra})
@@ -206,7 +178,7 @@ class NlpSolver:
     (batched numpy); the NLP then runs from the warm start and the best others only
     (``n_solved`` in all). Each solve uses local models of the map and the navigation function
     along the start's exact rollout; when the solution's poses leave the models' trust radius
-    they are re-taken along the solution and the solve repeated (at most ``MAX_OUTER`` times).
+    they are re-taken along the solution and the solve repeated (at most ``max_outer`` times).
 
     Parameters
     ----------
@@ -218,18 +190,6 @@ class NlpSolver:
         iteration limit, ``n_spread`` and ``seed``.
     sizes : GraphSizes, optional
         Obstacle block sizes (default: 12 objects for the terminal TTC, 3 per pose).
-    n_solved : int, optional
-        Starts the NLP runs from (default 3 for IPOPT, 2 otherwise; IPOPT with 2 fell from
-        90 % to 80 % of cycles within 0.01 of 4096 samples, ``newton`` with 2 keeps 95 %).
-    n_screen : int
-        Further low-discrepancy z (seed + 1) costed exactly with the starts and recorded as
-        ``screen-0``, ...: cheap, and the landscape is multimodal (measured: with 4 spread
-        starts alone the NLP missed the best of 4096 samples by > 1 in some cycles). On
-        ``hall`` (moving goal) every cycle IPOPT still lost with 64 was a missing start: the
-        smooth cost at the sampler's best z matched its exact cost and a solve from there
-        reached it; 256 took the share within 0.01 from 74 % to 77 % (IPOPT) and 52 % to 69 %
-        (newton), the demo scene's from 90 / 95 % to 100 / 100 %, for ~10-30 ms of exact
-        costing per plan.
     jit_directory : str, optional
         Where compiled code is cached when ``solver.jit`` is set.
 
@@ -243,13 +203,13 @@ class NlpSolver:
     """
 
     def __init__(self, config: PlannerConfig, solver: SolverConfig | None = None,
-                 sizes: GraphSizes | None = None, n_solved: int | None = None,
-                 n_screen: int = 256, jit_directory: str = ".dsmpepc_jit"):
+                 sizes: GraphSizes | None = None, jit_directory: str = ".dsmpepc_jit"):
         started = time.perf_counter()
         self.config = config
         self.solver_config = SolverConfig() if solver is None else solver
         self.sizes = GraphSizes() if sizes is None else sizes
-        if n_solved is None:
+        n_solved = self.solver_config.n_solved
+        if n_solved == 0:
             n_solved = 3 if self.solver_config.method == "ipopt" else 2
         self.n_solved = n_solved
         self.lower = np.array(config.z_lower, dtype=float)
@@ -257,7 +217,8 @@ class NlpSolver:
         self.cost, self._cold, self._warm, self._newton = _build(
             config, self.solver_config, self.sizes, jit_directory)
         self.spread = box_samples(config, self.solver_config.n_spread, self.solver_config.seed)
-        self.screen = box_samples(config, n_screen, self.solver_config.seed + 1)
+        self.screen = box_samples(config, self.solver_config.n_screen,
+                                  self.solver_config.seed + 1)
         self._lam_x = None
         self.last_stats = []
         self.build_s = time.perf_counter() - started
@@ -276,7 +237,8 @@ class NlpSolver:
                 break
             if i in order or not np.isfinite(costs[i]):
                 continue
-            if all(np.max(np.abs(named[i][1] - named[j][1]) / span) > _DISTINCT for j in order):
+            if all(np.max(np.abs(named[i][1] - named[j][1]) / span) > self.solver_config.distinct
+                   for j in order):
                 order.append(int(i))
         return order
 
@@ -301,8 +263,6 @@ class NlpSolver:
             start). Solver trouble never raises: the
             record has ``success=False`` and a status saying why.
         """
-        from .planner import StartRecord
-
         named = [(name, np.clip(np.where(np.isfinite(z), z, self.lower), self.lower,
                                 self.upper))
                  for name, z in ((n, np.asarray(z, dtype=float)) for n, z in starts.items())]
@@ -340,14 +300,11 @@ class NlpSolver:
         and the record keeps the best of them and of ``z0`` (``z0_cost``), so a solve never
         loses the start it was run from.
         """
-        from ..core.control_law import rollout
-        from .planner import StartRecord
-
         started = time.perf_counter()
         z_start, lam_x = z0, (self._lam_x if name == "warm" else None)
         nit, record = 0, None
         best = (z0_cost, z0, math.nan, None)     # exact cost, z, smooth cost, lam_x
-        for outer in range(MAX_OUTER):
+        for outer in range(self.solver_config.max_outer):
             packed = time.perf_counter()
             try:
                 p = self.parameters(cycle.state, cycle.world, cycle.goal, poses)
@@ -370,7 +327,8 @@ class NlpSolver:
             if math.isfinite(exact) and not exact > best[0]:
                 best = (exact, z, result["cost"], lam_x)
             moved = rollout(z, cycle.state, self.config).poses
-            if np.max(np.linalg.norm(moved[:, :2] - poses[:, :2], axis=1)) <= RELINEARISE_RADIUS:
+            shift = np.max(np.linalg.norm(moved[:, :2] - poses[:, :2], axis=1))
+            if shift <= self.solver_config.relinearise_radius:
                 break
             z_start, poses = z, moved
         if record is not None and record.success and best[1] is not record.z:
@@ -445,6 +403,7 @@ class NlpSolver:
 
         started = time.perf_counter()
         result = minimize(f, f_g_h, z_start, self.lower, self.upper,
+                          radius=self.solver_config.trust_radius,
                           max_iter=self.solver_config.max_iter, tol=self.solver_config.tol)
         timing.update({"t_wall_total": time.perf_counter() - started, "iter_count": result.nit,
                        "nfev": result.nfev, "nhev": result.nhev})

@@ -1,67 +1,15 @@
-"""The smooth DS-MPEPC cost as a small CasADi graph in z, with the world packed as local models.
+"""The smooth DS-MPEPC cost as a small CasADi SX graph in z, with the world as local models.
 
-What the graph sees of the world, and why (numbers: crowded demo scene, map + 12 pedestrians,
-``python -m dsmpepc_nlp.benchmark``, 20 cycles, 2 shared cores):
+This is the graph the built-in solvers (``nlp.py``) minimise today. The static map and the
+navigation function enter as local quadratic models along a reference trajectory (exact value
+and gradient there, curvature damped beyond ``MODEL_RADIUS``), static 1/TTC as the wall plane
+the reference ray hit, and per pose only the ``near_objects`` objects nearest to the reference:
+small enough for a fast exact SX Hessian, but honest only near the reference, so ``NlpSolver``
+re-takes the models when a solution moves away. ``nlp_global.py`` is the graph that reads the
+map and navigation tables themselves and is honest at every z (the one to embed).
 
-- **Static map and navigation function as local models along a reference trajectory**
-  (sequential linearisation). For a start z0 the exact trajectory is rolled out (numpy); at
-  each pose k the graph gets a quadratic model ``(value, gradient, Hessian)`` of the NF at the
-  robot's reference point and of the signed distance at each footprint circle's reference
-  centre (central differences on a 3x3 stencil with step = grid resolution; the NF gradient is
-  ``NavigationFunction.gradient`` itself so the heading term is exact at the reference). The
-  curvature term is damped by ``1/(1 + |dp|^2/R^2)``, R = ``MODEL_RADIUS`` = 0.5 m, so a
-  distance model never bends back up far from its reference. Static 1/TTC is the wall-plane
-  form ``max(v (-u.n), 0) / n.(p - q)`` with the plane (point q, normal n) that the reference
-  pose's exact ray march hit: equal to ``World.static_ray_distance`` at the reference and for
-  any pose in front of a flat wall; it differs where the moved ray would hit a different wall
-  (past a corner, or a wall the reference ray missed), where a plane FAR ahead stands for a
-  miss. The terminal static TTC uses the plane of pose N at v_limit. ``nlp.NlpSolver``
-  re-takes the models along the solution when its poses moved more than 0.3 m from the
-  reference (at most 2 solves per start). With exact temperatures the graph equals
-  ``costs.evaluate`` at the reference to 1e-15 (tested); with the default temperatures to
-  ~5e-4. The old stand-ins (48 map disks, NF as a soft-min over 8 waypoints) missed the NF by
-  0.44 m on average and cut through walls.
-- **Dynamic objects** stay exact (positions, velocities, radii): per pose the ``near_objects``
-  (3) objects nearest to that reference pose at that time (prediction done in numpy), which
-  are the only ones whose collision probability is not ~0 near the reference (exact at the
-  reference in the demo scene, tested); the terminal TTC at v_limit sees the ``max_objects``
-  (12) nearest to the robot, because 1/TTC at v_limit matters metres away.
-- **1/TTG**: its bell is s_ttg = 1e-3 1/s wide, so its soft-clip runs at
-  ``inverse_time * s_ttg / s_ttc`` (4e-5 1/s) instead of ``smoothing.inverse_time`` (which
-  shifted C_TTG by up to 0.45 where it is 1), and clips the ratio ``v u.(g - p) / |g - p|^2``,
-  not its numerator: clipping the numerator put ``1e-4 log 2 / |g - p|^2`` into 1/TTG, i.e.
-  C_TTG ~ 0 instead of 1 for a horizon ending within 0.1-0.2 m of the goal (``hall``, moving
-  goal: on the sampler's best plans of cycles 2 and 8 the graph's terminal term was -0.00
-  where the exact one is -0.87 and -0.91).
-- **v_max** is floored at 0 in the graph: SQP iterates left the box by the QP tolerance
-  (v_max = -2.8e-3) and the law's smooth speed cap turned the Hessian NaN there: that was the
-  source of the "nlp_hess_l ... NaN detected" warnings.
-
-Size and derivatives: 16.6k SX instructions for the cost (was 92k), gradient 39k, exact SX
-Hessian 247k (was 1.45M); per evaluation f 0.22 ms, gradient 0.48 ms, Hessian 2.0 ms (SX
-virtual machine). JIT to C did not pay: 15 s (-O0) to 60 s (-O1) to compile f + gradient and
-only 1.5x faster, against a 5 s build budget. IPOPT limited-memory took as long per plan
-(more line-search evaluations) with a similar cost, so the exact Hessian stays the default.
-Build: 0.7 s (default), 1.0 s (fast).
-
-Measured (20 cycles, seed 0; the machine is shared, so compare rows of one run): earlier
-runs gave IPOPT 565 / 800 ms (median / p95 per plan; was 4313 ms) and fast (sqpmethod + qrqp)
-308 / 560 ms. Re-measured on a quieter machine with ``python -m dsmpepc_nlp.benchmark``:
-IPOPT 224 / 454 ms, sqpmethod 136 / 172 ms, sampling at equal cost 876 ms (ratio 0.26). The
-trust-region ``newton`` method (``nlp.NlpSolver`` with ``SolverConfig(method="newton",
-tol=1e-3)``, CPU time per plan, same cycles): 55 / 80 ms, against IPOPT 212 / 422 ms in the
-same run. Cross-check against 4096 samples (``crosscheck(demo_cycles(cfg, 20, 0), cfg,
-solver)``), gap median / p95 / share within 0.01: IPOPT -0.33 / +0.15 / 90 % (was +0.23
-median, 0 %); newton -0.34 / -0.07 / 95 % (the miss: cycle 0, +0.03, no warm start);
-sqpmethod +1.46 / 0 % with CasADi's default non-monotone line search, -0.20 / +1.42 / 65 %
-with a monotone one. Where the time goes in a newton plan (quiet machine): 2 starts x 1-2
-solves x 10-15 steps, each one gradient + forward-difference Hessian (0.65 ms) and one trial
-objective (0.07 ms) and the box QP (0.07 ms); packing the models 2 ms per solve (the ray
-marches 0.5 ms; the per-pose nearest objects were 1 ms, now 0.06); exact costing of the ~75
-starts 4.4 ms (since then ~270 starts: 256 screened samples, see ``nlp.py``), of a single z
-1.8 ms (numpy per-step overhead), a single rollout 0.9 ms. The
-targets (20 ms default, 3 ms fast) are still missed: ~30 Newton steps per plan at ~0.9 ms plus
-~15 ms of numpy packing and exact costing set the floor.
+Why each form, and what was measured: ``docs/nlp.md``. With exact temperatures this graph
+equals ``costs.evaluate`` at the reference (tested).
 """
 
 from __future__ import annotations

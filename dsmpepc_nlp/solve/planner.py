@@ -14,31 +14,13 @@ from ..core.control_law import Trajectory, rollout, z_from_target
 from ..core.costs import TERM_NAMES, CostBreakdown
 from ..core.errors import InputError
 from .cycle import Cycle
+from .nlp import NlpSolver
+from .records import StartRecord  # noqa: F401 (re-exported: Plan.starts holds them)
 from .sampling import Evaluation, SamplingPlanner, clip_to_bounds, evaluate_batch, structured_starts
 
 STATUSES = ("nlp", "sampling", "sampling-fallback", "docked", "stopped")
 """Where a plan came from: the NLP, the sampler as chosen solver, the sampler after every NLP
 start failed, docking at a fixed goal, or the stop trajectory when nothing finite was found."""
-
-
-@dataclass(frozen=True)
-class StartRecord:
-    """One start of the multi-start search.
-
-    ``z0`` the start, ``z`` where the solver ended (clipped to the box), ``status`` the solver's
-    return status, ``nit`` iterations, ``time_s`` wall time, ``smooth_cost`` the NLP objective
-    at ``z`` and ``exact_cost`` the exact cost of ``z`` (the verdict).
-    """
-
-    name: str
-    z0: np.ndarray
-    z: np.ndarray
-    status: str
-    success: bool
-    nit: int
-    time_s: float
-    smooth_cost: float = math.nan
-    exact_cost: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -116,8 +98,6 @@ class Planner:
         self.sampler = SamplingPlanner(self.config, self.solver)
         self.nlp = None
         if self.solver.method != "sampling":
-            from .nlp import NlpSolver
-
             self.nlp = NlpSolver(self.config, self.solver)
         self._previous_target = None
 
@@ -163,7 +143,7 @@ class Planner:
         # message and the next one takes over; the stop trajectory is the last resort.
         trouble = []
         starts = _attempt(trouble, "the starts", structured_starts, state, goal, self.config,
-                          self._previous_target) or {}
+                          self._previous_target, self.solver) or {}
         cycle = _attempt(trouble, "the cycle", Cycle.prepare, state, world, goal, self.config)
         plan, evaluated, records = None, None, ()
         if dock and cycle is not None:

@@ -14,13 +14,6 @@ from ..core.costs import CostBreakdown, evaluate
 from . import exact
 from .cycle import Cycle
 
-SOFT_TURN = 0.6
-"""|delta| of the soft-turn starts, rad (our choice: about a third of the box)."""
-HARD_TURN = 1.5
-"""|delta| of the hard-turn starts, rad (our choice: near the box's edge)."""
-TURN_DISTANCE = 2.0
-"""Target distance r of the turn starts, m (our choice)."""
-
 
 def clip_to_bounds(z, config: PlannerConfig) -> np.ndarray:
     """z clipped into the box of ``config``; works on (4,) and (n, 4)."""
@@ -28,12 +21,15 @@ def clip_to_bounds(z, config: PlannerConfig) -> np.ndarray:
 
 
 def structured_starts(state: RobotState, goal, config: PlannerConfig,
-                      previous_target=None) -> dict:
+                      previous_target=None, solver: SolverConfig | None = None) -> dict:
     """The named starts of METHOD.md section 6, each a z of shape (4,) inside the box.
 
     ``warm`` (last plan's target re-expressed in the robot's new frame, when given), ``stop``,
-    ``goal`` (target on the goal, facing along the line of sight), soft and hard turns both ways.
+    ``goal`` (target on the goal, facing along the line of sight), soft and hard turns both ways
+    (their shapes: ``solver.soft_turn``, ``hard_turn`` and ``turn_distance``).
     """
+    solver = SolverConfig() if solver is None else solver
+    soft, hard, distance_r = solver.soft_turn, solver.hard_turn, solver.turn_distance
     v_limit = config.robot.v_limit
     starts = {}
     if previous_target is not None:
@@ -44,12 +40,12 @@ def structured_starts(state: RobotState, goal, config: PlannerConfig,
     dx, dy = goal[0] - state.x, goal[1] - state.y
     distance = math.hypot(dx, dy)
     los = math.atan2(dy, dx) if distance > 0 else state.phi
-    starts["stop"] = np.array([TURN_DISTANCE, 0.0, 0.0, 0.0])
+    starts["stop"] = np.array([distance_r, 0.0, 0.0, 0.0])
     starts["goal"] = np.array([distance, 0.0, float(wrap(state.phi - los)), v_limit])
-    for name, delta in (("soft-left", -SOFT_TURN), ("soft-right", SOFT_TURN),
-                        ("hard-left", -HARD_TURN), ("hard-right", HARD_TURN)):
+    for name, delta in (("soft-left", -soft), ("soft-right", soft),
+                        ("hard-left", -hard), ("hard-right", hard)):
         # delta = phi - los: a negative delta puts the target to the robot's left.
-        starts[name] = np.array([TURN_DISTANCE, 0.0, delta, v_limit])
+        starts[name] = np.array([distance_r, 0.0, delta, v_limit])
     return {name: clip_to_bounds(z, config) for name, z in starts.items()}
 
 

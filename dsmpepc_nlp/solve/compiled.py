@@ -1,0 +1,193 @@
+"""The NLP's cost, gradient and Hessian as compiled C, built once per configuration and cached.
+
+The solvers evaluate the cost thousands of times per plan; CasADi's virtual machine and the
+Python call around it cost more than the arithmetic. Here the problem's functions of
+``(z, p)`` (``p`` the flat parameter vector of one cycle) are generated as C with CasADi's code
+generator, compiled with the system C compiler into a shared library cached on disk
+(:mod:`~dsmpepc_nlp.solve.cache`: per configuration, package version and source hash), and
+loaded twice: as CasADi ``external`` functions for ``nlpsol`` (no Python inside IPOPT) and
+through ``ctypes`` with the parameter vector bound once per solve (one C call per
+evaluation for the trust-region Newton method). Without a compiler, or with
+``DSMPEPC_NO_COMPILE=1``, the same functions run in CasADi's virtual machine (one warning).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+
+from .cache import cache_dir, compile_enabled, config_key, warn_once
+
+NAMES = ("F", "G", "H")
+"""Generated functions of ``(z, p)``: ``F -> f``, ``G -> (f, grad)``, ``H -> (f, grad, hess)``."""
+
+
+def source_hash() -> str:
+    """Hash of the modules that define the graph: a code change never loads stale C."""
+    here = Path(__file__).resolve().parent
+    files = [here / "nlp_global.py", here / "compiled.py",
+             here.parent / "core" / "costs.py", here.parent / "core" / "control_law.py",
+             here.parent / "core" / "smooth.py", here.parent / "core" / "geometry.py"]
+    digest = hashlib.sha1()
+    for path in files:
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:12]
+
+
+def problem_functions(cost: ca.Function, n_params: int, fd_step) -> dict:
+    """``F``, ``G``, ``H`` (and ``adj1_F`` for ``nlpsol``) from the cost graph.
+
+    ``cost(z, p) -> f`` takes the flat parameter vector. The Hessian is forward differences of
+    the gradient with steps ``fd_step`` (4,), symmetrised: the exact MX Hessian through the
+    table look-ups takes about a minute to build, and a bilinear table has no curvature to
+    add.
+    """
+    z, p = ca.MX.sym("z", 4), ca.MX.sym("p", n_params)
+    f = cost(z, p)
+    grad = ca.gradient(f, z)
+    G = ca.Function("G", [z, p], [f, grad])
+    columns = []
+    for i in range(4):
+        step = np.zeros(4)
+        step[i] = fd_step[i]
+        columns.append((G(z + step, p)[1] - grad) / fd_step[i])
+    hess = ca.horzcat(*columns)
+    F = ca.Function("F", [z, p], [f])
+    H = ca.Function("H", [z, p], [f, grad, 0.5 * (hess + hess.T)])
+    adj = F.reverse(1)
+    return {"F": F, "G": G, "H": H, f"adj1_{F.name()}": adj}
+
+
+def _compiler() -> str | None:
+    return shutil.which(os.environ.get("CC", "gcc")) or shutil.which("cc")
+
+
+def compile_library(functions: dict, key: str, flags=("-O1",)) -> Path | None:
+    """The shared library of ``functions`` for ``key``, compiled unless cached; None when
+    compilation is disabled or fails (the caller then uses the virtual machine)."""
+    if not compile_enabled():
+        warn_once("casadi-compile", "DSMPEPC_NO_COMPILE is set: the NLP runs in CasADi's "
+                  "virtual machine (slower)")
+        return None
+    compiler = _compiler()
+    if compiler is None:
+        warn_once("casadi-compile", "no C compiler found: the NLP runs in CasADi's virtual "
+                  "machine (slower)")
+        return None
+    folder = cache_dir("casadi")
+    library = folder / f"nlp_{key}.so"
+    if library.exists():
+        return library
+    with tempfile.TemporaryDirectory(dir=folder) as work:
+        generator = ca.CodeGenerator(f"nlp_{key}.c", {"with_header": False})
+        for function in functions.values():
+            generator.add(function)
+        generator.generate(work + os.sep)
+        source = Path(work) / f"nlp_{key}.c"
+        target = Path(work) / library.name
+        done = subprocess.run([compiler, "-shared", "-fPIC", *flags, "-o", str(target),
+                               str(source), "-lm"], capture_output=True, text=True)
+        if done.returncode != 0:
+            warn_once("casadi-compile", f"compiling the NLP failed ({done.stderr[-200:]}): "
+                      "CasADi's virtual machine is used (slower)")
+            return None
+        os.replace(target, library)   # atomic: a concurrent process sees all or nothing
+    return library
+
+
+class CFunction:
+    """One generated function called through ``ctypes`` with its parameters bound once.
+
+    ``bind(p)`` keeps ``p`` (float64) for the following calls; ``__call__(z)`` writes ``z``
+    and returns the outputs as numpy arrays (views of buffers reused by the next call: copy
+    what you keep).
+    """
+
+    def __init__(self, library: ctypes.CDLL, name: str, function: ca.Function):
+        self._call = getattr(library, name)
+        self._call.restype = ctypes.c_int
+        self._call.argtypes = [ctypes.c_void_p] * 4 + [ctypes.c_int]
+        sizes = [ctypes.c_longlong() for _ in range(4)]
+        work = getattr(library, f"{name}_work")
+        work.argtypes = [ctypes.c_void_p] * 4
+        work(*(ctypes.byref(s) for s in sizes))
+        n_arg, n_res, n_iw, n_w = (max(int(s.value), 1) for s in sizes)
+        self._iw = np.zeros(n_iw, dtype=np.int64)
+        self._w = np.zeros(n_w)
+        self._z = np.zeros(4)
+        self._outputs = [np.zeros(function.nnz_out(i)) for i in range(function.n_out())]
+        self._shapes = [function.size_out(i) for i in range(function.n_out())]
+        self._arg = (ctypes.c_void_p * n_arg)()
+        self._res = (ctypes.c_void_p * n_res)()
+        self._arg[0] = self._z.ctypes.data
+        for i, out in enumerate(self._outputs):
+            self._res[i] = out.ctypes.data
+        self._p = None
+
+    def bind(self, p: np.ndarray) -> None:
+        """Use ``p`` (flat parameters) for every call until the next ``bind``."""
+        self._p = np.ascontiguousarray(p, dtype=float)
+        self._arg[1] = self._p.ctypes.data
+
+    def __call__(self, z) -> list:
+        self._z[:] = z
+        if self._call(self._arg, self._res, self._iw.ctypes.data, self._w.ctypes.data, 0):
+            raise RuntimeError("generated code reported an error")
+        return [out.reshape(shape, order="F") for out, shape in zip(self._outputs, self._shapes)]
+
+
+class Compiled:
+    """``F``, ``G``, ``H`` for ``nlpsol`` (CasADi Functions) and for Python (``call``).
+
+    Attributes
+    ----------
+    functions : dict of str to casadi.Function
+        External (compiled) functions, or the graph's own in the virtual machine.
+    compiled : bool
+        True when the functions run as compiled C.
+    """
+
+    def __init__(self, functions: dict, library: Path | None):
+        self.compiled = library is not None
+        if library is None:
+            self.functions = functions
+            self._c = None
+            return
+        self.functions = {name: ca.external(name, str(library)) for name in NAMES}
+        handle = ctypes.CDLL(str(library))
+        self._c = {name: CFunction(handle, name, functions[name]) for name in NAMES}
+
+    def bind(self, p: np.ndarray) -> None:
+        """Set the parameters of the following :meth:`call` s."""
+        if self._c is None:
+            self._p = ca.DM(p)
+        else:
+            for function in self._c.values():
+                function.bind(p)
+
+    def call(self, name: str, z) -> list:
+        """``name`` (F, G or H) at ``z`` with the bound parameters, as numpy arrays."""
+        if self._c is None:
+            out = self.functions[name](z, self._p)
+            out = out if isinstance(out, (list, tuple)) else [out]
+            return [np.asarray(o, dtype=float) for o in out]
+        return self._c[name](z)
+
+
+def build(cost: ca.Function, n_params: int, fd_step, key_parts: tuple) -> Compiled:
+    """Compile (or load from the cache) the problem's functions for one configuration."""
+    functions = problem_functions(cost, n_params, fd_step)
+    key = config_key(*key_parts, source_hash(), ca.__version__)
+    return Compiled(functions, compile_library(functions, key))
+
+
+__all__ = ["CFunction", "Compiled", "build", "compile_library", "problem_functions",
+           "source_hash"]

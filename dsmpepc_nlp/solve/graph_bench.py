@@ -1,0 +1,90 @@
+"""Accuracy and speed of the global cost graph: ``python -m dsmpepc_nlp.solve.graph_bench``.
+
+Prints, on the crowded demo scene (map + 12 pedestrians), the error of the global graph
+against the exact cost at random z (exact and default temperatures), and the time per
+evaluation of the cost, its gradient and its Hessian in CasADi's virtual machine and as
+compiled C (with the build time). ``docs/nlp.md`` quotes its output.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+
+from ..core.config import PlannerConfig, SmoothingConfig
+from ..core.control_law import rollout
+from ..core.costs import evaluate
+from . import compiled
+from . import nlp_global as g
+from .cycle import Cycle
+
+
+def accuracy(config: PlannerConfig, sizes: g.GraphSizes, cycles, n_z: int = 200) -> dict:
+    """Median, p95 and share within 0.01 of |graph - exact| over random z and cycles."""
+    lower, upper = np.array(config.z_lower), np.array(config.z_upper)
+    z = lower + np.random.default_rng(0).random((n_z, 4)) * (upper - lower)
+    result = {}
+    for label, smoothing in (("exact_temperatures", SmoothingConfig.exact()),
+                             ("default_temperatures", config.smoothing)):
+        f = g.build_cost_function(config, sizes, smoothing).map(n_z)
+        errors = []
+        for state, world, goal in cycles:
+            params = g.pack_parameters(Cycle.prepare(state, world, goal, config), sizes)
+            graph = np.array(f(z.T, *(params[n] for n in g.PARAMETER_NAMES))[0]).ravel()
+            exact = evaluate(rollout(z, state, config), world, goal, config).total
+            finite = np.isfinite(exact)
+            errors.append(np.abs(graph - exact)[finite])
+        errors = np.concatenate(errors)
+        result[label] = {"median": float(np.median(errors)),
+                         "p95": float(np.percentile(errors, 95)),
+                         "within_0.01": float(np.mean(errors < 0.01))}
+    return result
+
+
+def speed(config: PlannerConfig, sizes: g.GraphSizes, cycle, repeats: int = 200) -> dict:
+    """Microseconds per call of F, G, H (VM and compiled) and the build seconds."""
+    started = time.perf_counter()
+    cost = g.flat_cost(config, sizes)
+    span = np.array(config.z_upper) - np.array(config.z_lower)
+    functions = compiled.problem_functions(cost, cost.size1_in(1), 1e-6 * span)
+    built = compiled.build(cost, cost.size1_in(1), 1e-6 * span, (config, sizes))
+    result = {"build_s": time.perf_counter() - started, "compiled": built.compiled}
+    p = g.flatten_parameters(g.pack_parameters(cycle, sizes))
+    z = np.array([2.0, 0.1, 0.1, 0.8])
+    for label, runner in (("vm", compiled.Compiled(functions, None)), ("c", built)):
+        if label == "c" and not built.compiled:
+            continue
+        runner.bind(p)
+        for name in compiled.NAMES:
+            runner.call(name, z)
+            times = []
+            for _ in range(repeats):
+                tick = time.perf_counter()
+                runner.call(name, z)
+                times.append(time.perf_counter() - tick)
+            result[f"{label}_{name}_us"] = 1e6 * float(np.median(times))
+    return result
+
+
+def main(argv=None) -> int:
+    from ..bench.crosscheck import demo_cycles
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cycles", type=int, default=4)
+    parser.add_argument("--max-objects", type=int, default=12)
+    parser.add_argument("--ray-samples", type=int, default=64)
+    args = parser.parse_args(argv)
+    config = PlannerConfig()
+    sizes = g.GraphSizes(max_objects=args.max_objects, ray_samples=args.ray_samples)
+    cycles = demo_cycles(config, args.cycles, seed=0, n_samples=64)
+    report = {"sizes": str(sizes), "accuracy": accuracy(config, sizes, cycles),
+              "speed": speed(config, sizes, Cycle.prepare(*cycles[0], config))}
+    print(json.dumps(report, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,581 @@
+"""The smooth DS-MPEPC cost as one CasADi graph in z, valid wherever the horizon can reach.
+
+This is the cost to embed in your own optimiser (:func:`cost_function`): it reads the world
+through parameters set once per cycle, never through models taken along a reference
+trajectory (``nlp_graph.py``, which the built-in solvers still use), so its value is honest at
+every z:
+
+- the static signed distance and the navigation function as look-up tables over a window of
+  ``GraphSizes.table_cells`` cells around the robot (the cycle's own tables, cut out at their
+  resolution), read by the same clamped bilinear interpolation plus outside distance as
+  ``core/world.py::_interpolate`` (a parametric CasADi ``interpolant``, called once per point
+  in MX so that the table is read in place);
+- the gradient of either table (the wall normal for the static time to collision, the NF
+  descent direction for the heading term) as central differences one cell wide, the formula
+  of ``NavigationFunction.gradient``;
+- static 1/TTC along the trajectory as the closing speed over the gap to the nearest wall's
+  tangent plane (the exact ray distance in front of any flat wall); at the horizon's end,
+  where it reaches ``ttc_range`` ahead, from ``ray_samples`` samples of the distance along the
+  ray (first crossing, interpolated between samples);
+- the ``max_objects`` dynamic objects that come nearest to the robot's start over the horizon,
+  moved at constant velocity inside the graph.
+
+Everything but the look-ups is SX (compact derivatives); the cost is ``costs.assemble``, the
+formula the exact cost uses. Accuracy and speed, with the commands, are in ``docs/nlp.md``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from ..core.config import PlannerConfig
+from ..core.control_law import clamp_measured, step_function, target_pose
+from ..core.costs import TERM_NAMES, assemble, disk_inverse_ttc, heading_error, inverse_ttg
+from ..core.errors import InputError
+from ..core.geometry import body_to_world
+from ..core.smooth import CASADI, relu, sigmoid, smax, softmax_objects, softmin_objects
+
+FAR = 1.0e3
+"""Distance reported by padding objects and by a world without a map, m:
+exp(-FAR^2/sigma^2) is exactly 0."""
+
+FRAME_COLUMNS = 5
+"""A table's frame: origin (x, y) of its lower-left cell corner, resolution, and the number of
+valid columns and rows (the clamping box of the bilinear interpolation)."""
+
+_STENCIL = ((0.0, 0.0), (1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0))
+"""Look-ups per point, in cells: the point, then +-x and +-y for a central difference."""
+
+_OUTSIDE_EPS = 1e-9
+"""Squared-length floor (m^2) under the outside distance's square root: its slope at 0 would
+be infinite and the derivatives NaN."""
+
+
+@dataclass(frozen=True)
+class GraphSizes:
+    """Fixed sizes of the parameter blocks; the graph is built once for them.
+
+    Attributes
+    ----------
+    max_objects : int
+        Dynamic objects the graph sees at every pose (those that come nearest to the robot's
+        start over the horizon).
+    circles_per_object : int
+        Circles per object (a pedestrian uses 1; padding repeats its nearest circle).
+    table_cells : int
+        Side of the square window of the distance and navigation tables, cells. The window
+        holds the whole map when it fits, else the part around the robot.
+    ray_samples : int
+        Samples of the distance table along the terminal ray (``ttc_range`` long, start
+        included) from which the terminal static time to collision is read.
+    """
+
+    max_objects: int = 12
+    circles_per_object: int = 1
+    table_cells: int = 256
+    ray_samples: int = 64
+
+    def __post_init__(self):
+        for name, low in (("max_objects", 1), ("circles_per_object", 1), ("table_cells", 2),
+                          ("ray_samples", 2)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise InputError(f"GraphSizes.{name} = {value!r}: must be an integer >= {low}")
+
+
+PARAMETER_NAMES = ("state", "goal", "obstacle_circles", "obstacle_velocities", "map_frame",
+                   "map_table", "nav_frame", "nav_table")
+"""Named parameter inputs of :func:`build_cost_function`, in order."""
+
+
+def parameter_shapes(config: PlannerConfig, sizes: GraphSizes) -> dict:
+    """Shape of each parameter block (CasADi column-major)."""
+    cells = sizes.table_cells * sizes.table_cells
+    return {
+        "state": (5, 1),
+        "goal": (3, 1),
+        "obstacle_circles": (sizes.max_objects * sizes.circles_per_object, 3),
+        "obstacle_velocities": (sizes.max_objects, 2),
+        "map_frame": (FRAME_COLUMNS, 1),
+        "map_table": (cells, 1),
+        "nav_frame": (FRAME_COLUMNS, 1),
+        "nav_table": (cells, 1),
+    }
+
+
+# --- the graph ----------------------------------------------------------------------------
+
+
+def table_lookup(sizes: GraphSizes):
+    """Bilinear interpolation of a (table_cells x table_cells) parametric table at one point.
+
+    ``(uv 2 x 1 in cell units, table) -> value``. Called once per point in MX: each call reads
+    the table in place (a mapped call copied it per point; see docs/nlp.md).
+    """
+    cells = [float(i) for i in range(sizes.table_cells)]
+    return ca.interpolant("bilinear", "linear", [cells, cells], 1,
+                          {"lookup_mode": ["exact", "exact"]})
+
+
+def _lookups(lookup, uv, table):
+    """``lookup`` at every column of ``uv`` (MX, 2 x n): a row 1 x n."""
+    return ca.horzcat(*(lookup(uv[:, i], table) for i in range(uv.shape[1])))
+
+
+def _cell_coordinates(points, frame):
+    """Clamped cell coordinates (2 x n) and the distance (1 x n, m) to the clamped point."""
+    res = frame[2]
+    u = (points[0, :] - frame[0]) / res - 0.5
+    v = (points[1, :] - frame[1]) / res - 0.5
+    uc = ca.fmin(ca.fmax(u, 0.0), frame[3] - 1.0)
+    vc = ca.fmin(ca.fmax(v, 0.0), frame[4] - 1.0)
+    du, dv = u - uc, v - vc
+    outside = res * (ca.sqrt(du * du + dv * dv + _OUTSIDE_EPS) - np.sqrt(_OUTSIDE_EPS))
+    return ca.vertcat(uc, vc), outside
+
+
+def _stencil_points(points, frame):
+    """Every point with its four neighbours one cell away: 2 x (5 n), stencil-major."""
+    res = frame[2]
+    return ca.horzcat(*(points + res * ca.DM([dx, dy]) for dx, dy in _STENCIL))
+
+
+def _rollout(z, state, config, smoothing):
+    """Poses (3 x (N+1)), speeds and turn rates (N x 1 each) of the law from ``state``."""
+    law_step = step_function(config, smoothing)
+    target = ca.vertcat(*target_pose([z[0], z[1], z[2]], [state[0], state[1], state[2]], CASADI))
+    # SQP iterates can leave the box by the QP's tolerance (seen: v_max = -2.8e-3); a negative
+    # v_max makes the law's smooth speed cap NaN (a negative base to the power 1/t).
+    v_max = ca.fmax(z[3], 0.0)
+    carry, poses, vs, omegas = state, [state[:3]], [], []
+    for _ in range(config.horizon.n_steps):
+        carry, v, omega = law_step(carry, target, v_max)
+        poses.append(carry[:3])
+        vs.append(v)
+        omegas.append(omega)
+    return ca.horzcat(*poses), ca.vertcat(*vs), ca.vertcat(*omegas)
+
+
+def _circle_centres(poses, config):
+    """Footprint circle centres, 2 x ((N+1) C), pose-major."""
+    columns = []
+    for k in range(poses.shape[1]):
+        for cx, cy, _ in config.robot.footprint:
+            x, y = body_to_world(poses[:, k], cx, cy, ca)
+            columns.append(ca.vertcat(x, y))
+    return ca.horzcat(*columns)
+
+
+def _stencil_coordinates(points, frame):
+    """Cell coordinates (2 x 5n) of the stencil points and their outside distances (1 x 5n)."""
+    return _cell_coordinates(_stencil_points(points, frame), frame)
+
+
+def _central(values, n, res):
+    """``(value, gx, gy)`` rows (1 x n each) from stencil-major look-ups (1 x 5n)."""
+    block = [values[:, i * n:(i + 1) * n] for i in range(len(_STENCIL))]
+    return block[0], (block[1] - block[2]) / (2 * res), (block[3] - block[4]) / (2 * res)
+
+
+def _static_terms(pose, speed, gap, normal, config, smoothing):
+    """1/TTC against the nearest wall's tangent plane for one circle (scalar).
+
+    ``closing = -v u.n`` (m/s) and the ray reaches the plane after ``gap v / closing`` m: a
+    hit when that is within ``ttc_range`` (a gate), 1/TTC = closing / gap.
+    """
+    cos, sin = ca.cos(pose[2]), ca.sin(pose[2])
+    norm = ca.sqrt(normal[0] ** 2 + normal[1] ** 2 + 1e-12)
+    closing = -(cos * normal[0] + sin * normal[1]) / norm * speed
+    reach, t_dist = config.cost.ttc_range, smoothing.distance
+    if t_dist == 0:
+        hit = ca.if_else(closing * reach >= speed * gap, 1.0, 0.0)
+        return ca.if_else(gap <= 0, np.inf, hit * ca.fmax(closing, 0.0) / ca.fmax(gap, 1e-300))
+    gate = sigmoid((closing * reach - speed * gap) / (t_dist * config.robot.v_limit), CASADI)
+    return gate * relu(closing, t_dist, CASADI) / smax(gap, t_dist, t_dist, CASADI)
+
+
+def _static_geometry(poses, speeds, d, gx, gy, config, smoothing):
+    """Per pose: gap to the map (min over circles) and 1/TTC (max over circles), 1 x 1 each."""
+    radii = [r for _, _, r in config.robot.footprint]
+    n_c = len(radii)
+    distances, inverses = [], []
+    for k in range(poses.shape[1]):
+        gaps, invs = [], []
+        for c, radius in enumerate(radii):
+            i = k * n_c + c
+            gap = d[i] - radius
+            gaps.append(gap)
+            invs.append(_static_terms(poses[:, k], speeds[k], gap, (gx[i], gy[i]), config,
+                                      smoothing))
+        distances.append(softmin_objects(ca.horzcat(*gaps), smoothing.distance, CASADI)
+                         if n_c > 1 else gaps[0])
+        inverses.append(softmax_objects(ca.horzcat(*invs), smoothing.inverse_time, CASADI)
+                        if n_c > 1 else invs[0])
+    return distances, inverses
+
+
+def _dynamic_geometry(pose, speed, time, circles, velocities, config, smoothing, sizes):
+    """Distance (1 x K) and 1/TTC (1 x K) to each object at one pose, objects moved ``time``."""
+    c_obj, k_max = sizes.circles_per_object, sizes.max_objects
+    cos, sin = ca.cos(pose[2]), ca.sin(pose[2])
+    obj_vel = ca.kron(velocities, ca.DM.ones(c_obj, 1))              # (K C_obj) x 2
+    centres = circles[:, :2] + time * obj_vel
+    gaps, inverses = [], []
+    for cx, cy, radius in config.robot.footprint:
+        x, y = body_to_world(pose, cx, cy, ca)
+        px, py = x - centres[:, 0], y - centres[:, 1]
+        reach = radius + circles[:, 2]
+        gaps.append(ca.sqrt(px * px + py * py) - reach)
+        wx, wy = speed * cos - obj_vel[:, 0], speed * sin - obj_vel[:, 1]
+        inverses.append(disk_inverse_ttc(px, py, wx, wy, reach, smoothing, CASADI))
+
+    def per_object(columns):
+        stacked = ca.horzcat(*columns)                                # (K C_obj) x C
+        return ca.reshape(stacked.T, len(columns) * c_obj, k_max).T   # K x (C C_obj)
+
+    gap, inv = per_object(gaps), per_object(inverses)
+    if gap.shape[1] > 1:
+        gap = softmin_objects(gap, smoothing.distance, CASADI)
+        inv = softmax_objects(inv, smoothing.inverse_time, CASADI)
+    return gap.T, inv.T
+
+
+def _ray_points(end, config, sizes):
+    """Samples along the terminal heading from each footprint circle: 2 x (M C), circle-major,
+    and their distances along the ray (M,)."""
+    along = np.linspace(0.0, config.cost.ttc_range, sizes.ray_samples)
+    cos, sin = ca.cos(end[2]), ca.sin(end[2])
+    columns = []
+    for cx, cy, _ in config.robot.footprint:
+        x, y = body_to_world(end, cx, cy, ca)
+        columns.append(ca.vertcat(x + cos * ca.DM(along).T, y + sin * ca.DM(along).T))
+    return ca.horzcat(*columns), along
+
+
+def _ray_inverse_ttc(gaps, along, speed, smoothing):
+    """1/TTC from the gaps (1 x M, m) at samples ``along`` (M,) of one ray: ``speed`` over the
+    first crossing of gap 0, linearly interpolated between samples; 0 for a miss.
+
+    Smooth: "first sample in contact" is a product of sigmoid gates at the distance
+    temperature, so the crossing moves continuously with the trajectory.
+    """
+    t_dist = smoothing.distance
+    step = float(along[1] - along[0])
+    inverse, free = 0.0, 1.0
+    for j in range(gaps.shape[1]):
+        gap = gaps[j]
+        hit = ca.if_else(gap <= 0, 1.0, 0.0) if t_dist == 0 else sigmoid(-gap / t_dist, CASADI)
+        if j == 0:
+            crossing = relu(gap, t_dist, CASADI)
+        else:
+            before = gaps[j - 1]
+            share = (before / (before - gap) if t_dist == 0 else
+                     before / smax(before - gap, t_dist, t_dist, CASADI))
+            crossing = along[j - 1] + step * ca.fmin(ca.fmax(share, 0.0), 1.0)
+        weight = hit * free
+        if t_dist == 0:
+            inv = ca.if_else(crossing <= 0, np.inf, speed / ca.fmax(crossing, 1e-300))
+            inverse = inverse + ca.if_else(weight > 0, weight * inv, 0.0)
+        else:
+            inverse = inverse + weight * speed / smax(crossing, t_dist, t_dist, CASADI)
+        free = free * (1.0 - hit)
+    return inverse
+
+
+def _symbols(config, sizes):
+    """SX symbols of the small parameter blocks (not the tables)."""
+    shapes = parameter_shapes(config, sizes)
+    return {name: ca.SX.sym(name, *shape) for name, shape in shapes.items()
+            if not name.endswith("_table")}
+
+
+def _pose_functions(config, sizes, smoothing):
+    """SX pieces of one pose: where it reads the map table, and its geometry from the reads.
+
+    ``pose_query(pose, map_frame) -> uv`` (2 x 5C) and ``pose_geometry(pose, speed, time,
+    raw 1 x 5C, map_frame, circles, velocities) -> (distance, inv_ttc)`` (1 x (1+K) each,
+    object 0 the map).
+    """
+    p = _symbols(config, sizes)
+    pose, speed, time = ca.SX.sym("pose", 3), ca.SX.sym("speed"), ca.SX.sym("time")
+    n_c = len(config.robot.footprint)
+    raw = ca.SX.sym("raw", 1, len(_STENCIL) * n_c)
+    frame = p["map_frame"]
+    centres = _circle_centres(pose, config)
+    uv, outside = _stencil_coordinates(centres, frame)
+    query = ca.Function("dsmpepc_pose_query", [pose, frame], [uv])
+    d, gx, gy = _central(raw + outside, n_c, frame[2])
+    static_d, static_inv = _static_geometry(pose, [speed], d, gx, gy, config, smoothing)
+    dyn_d, dyn_inv = _dynamic_geometry(pose, speed, time, p["obstacle_circles"],
+                                       p["obstacle_velocities"], config, smoothing, sizes)
+    inverse = ca.horzcat(static_inv[0], dyn_inv)
+    if not config.anticipatory_pc:
+        inverse = ca.SX.zeros(1, 1 + sizes.max_objects)
+    geometry = ca.Function("dsmpepc_pose_geometry",
+                           [pose, speed, time, raw, frame, p["obstacle_circles"],
+                            p["obstacle_velocities"]],
+                           [ca.horzcat(static_d[0], dyn_d), inverse])
+    return query, geometry
+
+
+def _terminal_functions(config, sizes, smoothing):
+    """``ray_query(end, map_frame) -> uv`` (2 x MC) and ``terminal(end, raw 1 x MC,
+    map_frame, circles, velocities) -> 1/TTC`` at v_limit along the terminal heading."""
+    p = _symbols(config, sizes)
+    end, frame = ca.SX.sym("end", 3), p["map_frame"]
+    m = sizes.ray_samples
+    raw = ca.SX.sym("raw", 1, m * len(config.robot.footprint))
+    points, along = _ray_points(end, config, sizes)
+    uv, outside = _cell_coordinates(points, frame)
+    query = ca.Function("dsmpepc_ray_query", [end, frame], [uv])
+    speed = config.robot.v_limit
+    gaps = raw + outside
+    static = [_ray_inverse_ttc(gaps[:, c * m:(c + 1) * m] - radius, along, speed, smoothing)
+              for c, (_, _, radius) in enumerate(config.robot.footprint)]
+    _, dyn = _dynamic_geometry(end, speed, config.horizon.n_steps * config.horizon.dt,
+                               p["obstacle_circles"], p["obstacle_velocities"], config,
+                               smoothing, sizes)
+    inv = softmax_objects(ca.horzcat(*static, dyn), smoothing.inverse_time, CASADI)
+    terminal = ca.Function("dsmpepc_terminal", [end, raw, frame, p["obstacle_circles"],
+                                                p["obstacle_velocities"]], [inv])
+    return query, terminal
+
+
+def _nav_points(poses, frame):
+    """Where the NF is read: every pose's position, then the end's four neighbours."""
+    end = poses[:2, -1]
+    res = frame[2]
+    return ca.horzcat(poses[:2, :], *(end + res * ca.DM([dx, dy]) for dx, dy in _STENCIL[1:]))
+
+
+def _final_functions(config, sizes, smoothing):
+    """``nav_query(poses, nav_frame) -> uv`` and ``assemble(poses, v, omega, goal, nav_frame,
+    nav_raw, distance, inv_ttc, inv_term) -> (cost, *terms)`` through ``costs.assemble``."""
+    p = _symbols(config, sizes)
+    n_steps = config.horizon.n_steps
+    poses = ca.SX.sym("poses", 3, n_steps + 1)
+    vs, omegas = ca.SX.sym("v", n_steps), ca.SX.sym("omega", n_steps)
+    goal, frame = p["goal"], p["nav_frame"]
+    uv, outside = _cell_coordinates(_nav_points(poses, frame), frame)
+    query = ca.Function("dsmpepc_nav_query", [poses, frame], [uv])
+    raw = ca.SX.sym("nav_raw", 1, n_steps + 5)
+    values = raw + outside
+    n = n_steps + 1
+    table_nf = values[:, :n]
+    grad = ((values[n] - values[n + 1]) / (2 * frame[2]),
+            (values[n + 2] - values[n + 3]) / (2 * frame[2]))
+    dx, dy = poses[0, :] - goal[0], poses[1, :] - goal[1]
+    norm = ca.sqrt(dx * dx + dy * dy + 1e-12)
+    euclid = goal[2]
+    nf = euclid * norm + (1 - euclid) * table_nf
+    descent = -ca.vertcat(euclid * dx[-1] / norm[-1] + (1 - euclid) * grad[0],
+                          euclid * dy[-1] / norm[-1] + (1 - euclid) * grad[1])
+    distance = ca.SX.sym("distance", n, 1 + sizes.max_objects)
+    inverse = ca.SX.sym("inv_ttc", n, 1 + sizes.max_objects)
+    inv_term = ca.SX.sym("inv_term")
+    end = poses[:, -1]
+    err = heading_error(end[2], descent[0], descent[1], CASADI, smoothing)
+    # The TTG bell is s_ttg = 1e-3 1/s wide: its soft-clip runs at the same share of the bell's
+    # width as 1/TTC's (inverse_time * s_ttg / s_ttc), else C_TTG ~ 0 where it is exactly 1.
+    ttg_smoothing = dataclasses.replace(
+        smoothing, inverse_time=smoothing.inverse_time * config.cost.s_ttg / config.cost.s_ttc)
+    inv_ttg = inverse_ttg((end[0], end[1], end[2]), vs[-1], goal, CASADI, ttg_smoothing)
+    sigma = ca.DM([[config.cost.sigma_static] + [config.cost.sigma_dynamic] * sizes.max_objects])
+    sigma = ca.repmat(sigma, n, 1)  # CasADi does not broadcast a row
+    total, terms, _ = assemble(distance, inverse, sigma, nf.T, vs, omegas, err, inv_ttg,
+                               inv_term, config, smoothing, CASADI)
+    final = ca.Function("dsmpepc_assemble",
+                        [poses, vs, omegas, goal, frame, raw, distance, inverse, inv_term],
+                        [total, *(terms[t] for t in TERM_NAMES)])
+    return query, final
+
+
+def build_cost_function(config: PlannerConfig, sizes: GraphSizes, smoothing=None) -> ca.Function:
+    """The smooth cost as a ``casadi.Function`` named ``dsmpepc_cost``.
+
+    Inputs: ``z`` (4) and the blocks of :data:`PARAMETER_NAMES` (shapes from
+    :func:`parameter_shapes`, values from :func:`pack_parameters`). Outputs: ``cost`` and each
+    term of :data:`~dsmpepc_nlp.core.costs.TERM_NAMES`.
+
+    An MX graph of small SX functions (the rollout, one pose's geometry called N+1 times, the
+    terminal ray, the assembly) and the table look-ups: each piece and its derivatives exist
+    once in generated code, so it compiles in seconds, not minutes.
+    """
+    smoothing = config.smoothing if smoothing is None else smoothing
+    shapes = parameter_shapes(config, sizes)
+    n_steps, dt = config.horizon.n_steps, config.horizon.dt
+    z_sx, state_sx = ca.SX.sym("z", 4), ca.SX.sym("state", 5)
+    rollout = ca.Function("dsmpepc_rollout", [z_sx, state_sx],
+                          list(_rollout(z_sx, state_sx, config, smoothing)))
+    pose_query, pose_geometry = _pose_functions(config, sizes, smoothing)
+    ray_query, terminal = _terminal_functions(config, sizes, smoothing)
+    nav_query, final = _final_functions(config, sizes, smoothing)
+    lookup = table_lookup(sizes)
+    z = ca.MX.sym("z", 4)
+    p = {name: ca.MX.sym(name, *shape) for name, shape in shapes.items()}
+    objects = (p["obstacle_circles"], p["obstacle_velocities"])
+    poses, vs, omegas = rollout(z, p["state"])
+    distances, inverses = [], []
+    for k in range(n_steps + 1):
+        pose = poses[:, k]
+        raw = _lookups(lookup, pose_query(pose, p["map_frame"]), p["map_table"])
+        d, inv = pose_geometry(pose, vs[min(k, n_steps - 1)], k * dt, raw, p["map_frame"],
+                               *objects)
+        distances.append(d)
+        inverses.append(inv)
+    inv_term = ca.MX(0)
+    if config.terminal_cost:
+        end = poses[:, -1]
+        raw = _lookups(lookup, ray_query(end, p["map_frame"]), p["map_table"])
+        inv_term = terminal(end, raw, p["map_frame"], *objects)
+    nav_raw = _lookups(lookup, nav_query(poses, p["nav_frame"]), p["nav_table"])
+    outputs = final(poses, vs, omegas, p["goal"], p["nav_frame"], nav_raw,
+                    ca.vertcat(*distances), ca.vertcat(*inverses), inv_term)
+    return ca.Function("dsmpepc_cost", [z, *(p[n] for n in PARAMETER_NAMES)], outputs,
+                       ["z", *PARAMETER_NAMES], ["cost", *TERM_NAMES])
+
+
+# --- packing the world into parameters (numpy) ----------------------------------------------
+
+
+def pack_obstacles(cycle, sizes: GraphSizes):
+    """``(circles, velocities)`` of the K objects that come nearest to the robot's start.
+
+    Returns ``circles`` ((K C_obj), 3: x, y, radius now) and ``velocities`` (K, 2); padding
+    objects sit FAR away.
+    """
+    k_max, c_obj = sizes.max_objects, sizes.circles_per_object
+    circles = np.tile([FAR, FAR, 0.1], (k_max * c_obj, 1))
+    velocities = np.zeros((k_max, 2))
+    owner = cycle.owner
+    if len(owner) == 0:
+        return circles, velocities
+    position = np.array([cycle.state.x, cycle.state.y])
+    gap = np.min(np.linalg.norm(cycle.predicted - position, axis=-1), axis=0) - cycle.radii
+    n_obj = int(owner.max()) + 1
+    per_object = np.full(n_obj, np.inf)
+    np.minimum.at(per_object, owner, gap)
+    for slot, index in enumerate(np.argsort(per_object, kind="stable")[:k_max]):
+        mine = np.flatnonzero(owner == index)
+        near = mine[np.argsort(gap[mine], kind="stable")[:c_obj]]
+        # Padding circles repeat the nearest one: the min over circles is unchanged.
+        near = np.r_[near, np.repeat(near[:1], c_obj - len(near))]
+        circles[slot * c_obj:(slot + 1) * c_obj] = np.column_stack(
+            [cycle.centers[near], cycle.radii[near]])
+        velocities[slot] = cycle.velocities[near[0]]
+    return circles, velocities
+
+
+def pack_table(table, resolution, origin, centre, cells: int) -> tuple:
+    """``(frame, values)``: a window of ``cells`` x ``cells`` of ``table`` (ny, nx) around
+    ``centre``, as the graph reads it (x fastest); the whole table when it fits."""
+    ny, nx = table.shape
+    u0 = int(np.clip(np.floor((centre[0] - origin[0]) / resolution) - cells // 2, 0,
+                     max(nx - cells, 0)))
+    v0 = int(np.clip(np.floor((centre[1] - origin[1]) / resolution) - cells // 2, 0,
+                     max(ny - cells, 0)))
+    window = table[v0:v0 + cells, u0:u0 + cells]
+    values = np.zeros((cells, cells))
+    values[:window.shape[0], :window.shape[1]] = window
+    frame = np.array([origin[0] + u0 * resolution, origin[1] + v0 * resolution, resolution,
+                      window.shape[1], window.shape[0]], dtype=float)
+    return frame, values.reshape(-1)
+
+
+def pack_parameters(cycle, sizes: GraphSizes) -> dict:
+    """Every parameter block of :func:`build_cost_function` from a prepared ``Cycle``.
+
+    Returns a dict over :data:`PARAMETER_NAMES` of numpy arrays shaped by
+    :func:`parameter_shapes`. The measured ``(v, omega)`` is clamped to the limits.
+    """
+    state, config, cells = cycle.state, cycle.config, sizes.table_cells
+    v0, omega0 = clamp_measured(state, config)
+    circles, velocities = pack_obstacles(cycle, sizes)
+    centre = (state.x, state.y)
+    grid = cycle.world.grid
+    if grid is None:
+        map_frame = np.array([state.x - 1.0, state.y - 1.0, 1.0, 2.0, 2.0])
+        map_table = np.full(cells * cells, FAR)
+    else:
+        map_frame, map_table = pack_table(grid.signed_distance, grid.resolution, grid.origin,
+                                          centre, cells)
+    nav = cycle.navigation
+    if nav.values is None:
+        nav_frame, nav_table, euclidean = map_frame, np.zeros(cells * cells), 1.0
+    else:
+        work = nav.working_grid
+        nav_frame, nav_table = pack_table(nav.values, work.resolution, work.origin, centre,
+                                          cells)
+        euclidean = 0.0
+    goal = np.asarray(cycle.goal, dtype=float).reshape(2)
+    return {
+        "state": np.array([state.x, state.y, state.phi, v0, omega0]),
+        "goal": np.array([goal[0], goal[1], euclidean]),
+        "obstacle_circles": circles,
+        "obstacle_velocities": velocities,
+        "map_frame": map_frame,
+        "map_table": map_table,
+        "nav_frame": nav_frame,
+        "nav_table": nav_table,
+    }
+
+
+def flatten_parameters(params: dict) -> np.ndarray:
+    """The blocks as one vector, each column-major (CasADi's ``vec``), in PARAMETER_NAMES order."""
+    return np.concatenate([np.asarray(params[n], dtype=float).reshape(-1, order="F")
+                           for n in PARAMETER_NAMES])
+
+
+def is_finite_parameters(params: dict) -> bool:
+    """True when every block is finite."""
+    return all(np.all(np.isfinite(params[n])) for n in PARAMETER_NAMES)
+
+
+def flat_cost(config: PlannerConfig, sizes: GraphSizes, smoothing=None) -> ca.Function:
+    """The cost as ``(z, p) -> f`` with ``p`` the flat vector of :func:`flatten_parameters`
+    (what the solvers and the compiled code take)."""
+    cost = build_cost_function(config, sizes, smoothing)
+    shapes = parameter_shapes(config, sizes)
+    counts = [int(np.prod(shapes[n])) for n in PARAMETER_NAMES]
+    z, p = ca.MX.sym("z", 4), ca.MX.sym("p", sum(counts))
+    blocks = ca.vertsplit(p, np.cumsum([0, *counts]).tolist())
+    blocks = [ca.reshape(b, *shapes[n]) for b, n in zip(blocks, PARAMETER_NAMES)]
+    return ca.Function("dsmpepc_flat_cost", [z, p], [cost(z, *blocks)[0]])
+
+
+def cost_function(config: PlannerConfig, sizes: GraphSizes | None = None,
+                  smoothing=None) -> ca.Function:
+    """The smooth DS-MPEPC cost as a ``casadi.Function`` to embed in your own problem.
+
+    Parameters
+    ----------
+    config : PlannerConfig
+        Method and parameters; the temperatures come from ``config.smoothing`` unless
+        ``smoothing`` is given (``SmoothingConfig.exact()`` gives the non-smooth forms).
+    sizes : GraphSizes, optional
+        Objects seen, table window and terminal ray samples.
+
+    Returns
+    -------
+    casadi.Function
+        Named inputs ``z`` (4: r [m], theta [rad], delta [rad], v_max [m/s]) and the blocks of
+        :data:`PARAMETER_NAMES` (from :func:`pack_parameters` of a prepared ``Cycle``); named
+        outputs ``cost``, ``progress``, ``action``, ``collision``, ``heading``, ``terminal``.
+
+    Examples
+    --------
+    >>> f = cost_function(PlannerConfig())                       # doctest: +SKIP
+    >>> params = pack_parameters(Cycle.prepare(state, world, goal, config), GraphSizes())
+    ...                                                          # doctest: +SKIP
+    >>> f(z=[2.0, 0.0, 0.0, 0.8], **params)["cost"]              # doctest: +SKIP
+    """
+    return build_cost_function(config, GraphSizes() if sizes is None else sizes, smoothing)
+
+
+__all__ = ["FAR", "GraphSizes", "PARAMETER_NAMES", "build_cost_function",
+           "cost_function", "flat_cost", "flatten_parameters", "pack_parameters", "pack_table",
+           "parameter_shapes", "is_finite_parameters"]

@@ -1,0 +1,142 @@
+"""The global cost graph (tables in the graph) against the exact cost, and its compiled form."""
+
+import dataclasses
+import shutil
+import time
+import warnings
+
+import numpy as np
+import pytest
+
+from dsmpepc_nlp.core.config import HorizonConfig, PlannerConfig, SmoothingConfig
+from dsmpepc_nlp.core.control_law import rollout
+from dsmpepc_nlp.core.costs import TERM_NAMES, evaluate
+from dsmpepc_nlp.solve import cache, compiled
+from dsmpepc_nlp.solve import nlp_global as g
+from dsmpepc_nlp.solve.cycle import Cycle
+
+CONFIG = PlannerConfig()
+
+
+def _demo():
+    from dsmpepc_nlp.bench.crosscheck import demo_cycles
+
+    return demo_cycles(CONFIG, 2, seed=0, n_samples=64)[1]
+
+
+def _random_z(config, n, seed):
+    lower, upper = np.array(config.z_lower), np.array(config.z_upper)
+    return lower + np.random.default_rng(seed).random((n, 4)) * (upper - lower)
+
+
+def _graph(config, sizes, smoothing, cycle, z):
+    f = g.build_cost_function(config, sizes, smoothing).map(len(z))
+    params = g.pack_parameters(cycle, sizes)
+    out = f(z.T, *(params[n] for n in g.PARAMETER_NAMES))
+    return {name: np.array(o).ravel() for name, o in zip(["cost", *TERM_NAMES], out)}
+
+
+@pytest.mark.parametrize("anticipatory", [False, True], ids=["mpepc-ttc-off", "ds-mpepc"])
+def test_graph_equals_exact_cost_at_any_z(anticipatory):
+    """Exact temperatures: map, NF and objects read as the exact cost reads them, at every z
+    (no reference trajectory). Only the static TTC forms differ: the tangent plane along the
+    trajectory, the sampled ray at its end."""
+    config = dataclasses.replace(CONFIG, anticipatory_pc=anticipatory)
+    state, world, goal = _demo()
+    z = _random_z(config, 120, 3)
+    exact = evaluate(rollout(z, state, config), world, goal, config)
+    got = _graph(config, g.GraphSizes(), SmoothingConfig.exact(),
+                 Cycle.prepare(state, world, goal, config), z)
+    # With the static TTC on, survivability (which weights progress and heading) carries its
+    # difference; without it every term but the terminal one is exact.
+    exact_terms = ("action",) if anticipatory else ("progress", "action", "heading", "collision")
+    for name in exact_terms:
+        np.testing.assert_allclose(got[name], exact.terms[name], atol=1e-9)
+    assert np.max(np.abs(got["terminal"] - exact.terms["terminal"])) < 0.02
+    error = np.abs(got["cost"] - exact.total)
+    assert np.median(error) < 1e-9
+    assert np.mean(error < 0.01) >= 0.95
+
+
+def test_smooth_graph_is_near_the_exact_cost():
+    state, world, goal = _demo()
+    z = _random_z(CONFIG, 60, 4)
+    exact = evaluate(rollout(z, state, CONFIG), world, goal, CONFIG).total
+    cycle = Cycle.prepare(state, world, goal, CONFIG)
+    errors = [np.median(np.abs(_graph(CONFIG, g.GraphSizes(), CONFIG.smoothing.scaled(f),
+                                      cycle, z)["cost"] - exact)) for f in (1.0, 0.01)]
+    assert errors[0] < 0.005
+    assert errors[1] < errors[0]
+
+
+def test_window_smaller_than_the_map_is_exact_near_the_robot():
+    """A 64-cell window of the 0.1 m demo map (6.4 m) still holds short trajectories."""
+    state, world, goal = _demo()
+    config = CONFIG
+    z = _random_z(config, 40, 5)
+    z[:, 0] = np.minimum(z[:, 0], 1.5)
+    z[:, 3] = np.minimum(z[:, 3], 0.3)
+    exact = evaluate(rollout(z, state, config), world, goal, config)
+    sizes = g.GraphSizes(table_cells=64)
+    got = _graph(config, sizes, SmoothingConfig.exact(), Cycle.prepare(state, world, goal, config),
+                 z)
+    np.testing.assert_allclose(got["progress"], exact.terms["progress"], atol=1e-9)
+
+
+SMALL_CONFIG = dataclasses.replace(CONFIG, horizon=HorizonConfig(n_steps=4))
+SMALL_SIZES = g.GraphSizes(max_objects=2, table_cells=16, ray_samples=4)
+
+
+def _small_functions():
+    cost = g.flat_cost(SMALL_CONFIG, SMALL_SIZES)
+    span = np.array(SMALL_CONFIG.z_upper) - np.array(SMALL_CONFIG.z_lower)
+    return cost, cost.size1_in(1), 1e-6 * span
+
+
+def _small_parameters():
+    state, world, goal = _demo()
+    cycle = Cycle.prepare(state, world, goal, SMALL_CONFIG)
+    return g.flatten_parameters(g.pack_parameters(cycle, SMALL_SIZES))
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None and shutil.which("cc") is None,
+                    reason="no C compiler")
+def test_compiled_functions_equal_the_virtual_machine_and_are_cached(tmp_path, monkeypatch):
+    monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("DSMPEPC_NO_COMPILE", raising=False)
+    cost, n_params, step = _small_functions()
+    built = compiled.build(cost, n_params, step, (SMALL_CONFIG, SMALL_SIZES))
+    assert built.compiled
+    machine = compiled.Compiled(compiled.problem_functions(cost, n_params, step), None)
+    p = _small_parameters()
+    built.bind(p)
+    machine.bind(p)
+    for z in _random_z(SMALL_CONFIG, 5, 6):
+        for name in compiled.NAMES:
+            for mine, theirs in zip(built.call(name, z), machine.call(name, z)):
+                np.testing.assert_allclose(mine, theirs, rtol=1e-9, atol=1e-9)
+        # The CasADi external (what nlpsol calls) is the same code.
+        external = built.functions["F"](z, p)
+        assert float(external) == pytest.approx(machine.call("F", z)[0].item(), abs=1e-9)
+    started = time.perf_counter()
+    again = compiled.build(cost, n_params, step, (SMALL_CONFIG, SMALL_SIZES))
+    assert again.compiled and time.perf_counter() - started < 5.0
+    assert len(list((tmp_path).rglob("*.so"))) == 1
+
+
+def test_no_compile_falls_back_to_the_virtual_machine_with_one_warning(tmp_path, monkeypatch):
+    monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv("DSMPEPC_NO_COMPILE", "1")
+    monkeypatch.setattr(cache, "_WARNED", set())
+    cost, n_params, step = _small_functions()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        first = compiled.build(cost, n_params, step, (SMALL_CONFIG, SMALL_SIZES))
+        compiled.build(cost, n_params, step, (SMALL_CONFIG, SMALL_SIZES))
+    assert not first.compiled
+    assert len([w for w in caught if "virtual machine" in str(w.message)]) == 1
+    assert not list(tmp_path.rglob("*.so"))
+    first.bind(_small_parameters())
+    value, gradient, hessian = first.call("H", _random_z(SMALL_CONFIG, 1, 7)[0])
+    assert np.isfinite(value).all() and np.isfinite(gradient).all()
+    np.testing.assert_allclose(hessian, hessian.T, atol=1e-12)
