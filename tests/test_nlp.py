@@ -4,15 +4,15 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.solve import nlp_graph
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SmoothingConfig, SolverConfig
 from dsmpepc_nlp.core.control_law import rollout
 from dsmpepc_nlp.core.costs import TERM_NAMES, assemble, evaluate, exact_geometry
+from dsmpepc_nlp.core.smooth import CASADI
+from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
+from dsmpepc_nlp.solve import nlp_graph
 from dsmpepc_nlp.solve.cycle import Cycle
 from dsmpepc_nlp.solve.nlp import NlpSolver, cost_function
 from dsmpepc_nlp.solve.sampling import SamplingPlanner, structured_starts
-from dsmpepc_nlp.core.smooth import CASADI
-from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 
 CONFIG = PlannerConfig()
 SMALL = nlp_graph.GraphSizes(max_objects=3, near_objects=2)
