@@ -13,7 +13,7 @@ from ..core.files import atomic_savefig
 
 VARIANT_COLOURS = {"mpepc": "tab:red", "ds-mpepc": "tab:blue", "pc-only": "tab:orange",
                    "terminal-only": "tab:green"}
-OUTCOMES = ("success_rate", "deadlock_rate", "collision_rate")
+OUTCOMES = ("success_rate", "deadlock_rate", "collision_rate", "timeout_rate")
 STYLES = ("-", "--", ":", "-.")
 
 
@@ -21,19 +21,20 @@ def claim_map_figure(rows, path, title: str = "claim map"):
     """Rates against the first geometry axis; ``rows`` are per-cell summary rows of one solver
     (``family``, ``axis``, ``x``, ``axis2``, ``y``, ``variant`` and the rates)."""
     names = list(dict.fromkeys(r["family"] for r in rows)) or ["(no runs)"]
-    fig, axes = plt.subplots(len(OUTCOMES), len(names), figsize=(4.2 * len(names), 7.5),
+    fig, axes = plt.subplots(len(OUTCOMES), len(names), figsize=(4.2 * len(names), 9.0),
                              squeeze=False, sharey=True)
     for j, name in enumerate(names):
         mine = [r for r in rows if r["family"] == name]
         ys = sorted({r["y"] for r in mine})
         for i, rate in enumerate(OUTCOMES):
             ax = axes[i, j]
-            for variant in dict.fromkeys(r["variant"] for r in mine):
+            for n, variant in enumerate(dict.fromkeys(r["variant"] for r in mine)):
                 for k, y in enumerate(ys):
                     line = sorted((r["x"], r[rate]) for r in mine
                                   if r["variant"] == variant and r["y"] == y)
                     label = variant if len(ys) == 1 else f"{variant}, {mine[0]['axis2']} {y:g}"
-                    ax.plot([p[0] for p in line], [p[1] for p in line], marker="o", ms=3,
+                    ax.plot([p[0] for p in line], [p[1] for p in line], marker="o",
+                            ms=max(2.0, 7.0 - 1.6 * n), lw=max(0.8, 4.0 - 1.0 * n), alpha=0.85,
                             ls=STYLES[k % len(STYLES)], label=label,
                             color=VARIANT_COLOURS.get(variant, "black"))
             ax.set_ylim(-0.05, 1.05)
