@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from dsmpepc_nlp.core.config import PlannerConfig, SolverConfig
+from dsmpepc_nlp.sim import families
 from dsmpepc_nlp.sim.scenario import load_scenario
 from dsmpepc_nlp.sim.simulate import simulate
 
@@ -67,3 +68,26 @@ def test_following_a_pedestrian_ends_without_collision(name):
     """Paper Figs. 1-3: the robot follows its pedestrian without a collision."""
     ds = run(name, "ds-mpepc")
     assert "collision" not in ds.outcomes, ds.outcomes
+
+
+# ---------------------------------------------------------------------------------------------
+# The claim map (dsmpepc claims, README "Where the claim holds"): one cell per family, asserting
+# what the reduced map found with the sampler (4096 samples, seed 0), not what the paper hoped.
+# The map runs the sampler whatever DSMPEPC_CLAIMS_SOLVER says, and so do these.
+
+MAP_FOUND = [
+    # family, first axis, second axis, {variant: outcome of every robot}
+    ("t-corridor", 1.0, 1.8, {"mpepc": "deadlock", "ds-mpepc": "success"}),
+]
+
+
+@pytest.mark.parametrize("family, x, y, expected", MAP_FOUND,
+                         ids=[f"{f}-{x:g}-{y:g}" for f, x, y, _ in MAP_FOUND])
+def test_the_claim_map_cell(family, x, y, expected, tmp_path):
+    """The cell's outcome per variant, as the reduced claim map found it."""
+    scenario = load_scenario(families.save(family, x, y, tmp_path))
+    for variant, outcome in expected.items():
+        episode = simulate(scenario, PlannerConfig.variant(variant), SolverConfig.sampling(),
+                           np.random.default_rng(0), record_trajectories=False)
+        print(f"{scenario.name} {variant} sampling: {episode.outcomes}")
+        assert episode.outcomes == [outcome] * episode.n_robots, (variant, episode.outcomes)

@@ -119,9 +119,9 @@ def run_claims(cells, variants, solvers, seeds, settings: ClaimSettings, out_dir
                                     out / f"claims_{s}.png", title=f"claim map ({s})"))
                for s in solvers]
     summary = {"runs": len(rows), "failed": sum(r["status"] != "ok" for r in rows),
-               "verdicts": verdict_counts(summary_rows), "claim_cells": [
+               "verdicts": verdict_counts(summary_rows), "claim_cells": list(dict.fromkeys(
                    f"{r['scenario']} ({r['solver']})" for r in summary_rows
-                   if r.get("verdict") == "claim"],
+                   if r.get("verdict") == "claim")),
                "table": str(table.csv_path), "cells_table": str(out / "claims_cells.csv"),
                "figures": drawn}
     if examples:
