@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -42,14 +41,13 @@ import numpy as np
 
 from ..core.config import PlannerConfig, RobotConfig, RobotState, SolverConfig
 from ..core.errors import InputError
-from ..sim.metrics import DISCOMFORT_GAP, episode_metrics
+from ..sim.metrics import DISCOMFORT_GAP
 from ..sim.simulate import simulate
 from ..sim.types import Agent, FixedGoal, Scenario
 from ..solve.planner import Planner
-from .crowds import crowd_fields, summarise
+from .crowds import measured_row, run_variants
 from .orca import OrcaPlanner, check_variants, require_pyrvo
 from .results import ResultTable
-from .runner import run_all
 
 SCENES = ("circle", "square")
 """CrowdNav's test scenes: circle crossing and square crossing."""
@@ -318,16 +316,8 @@ def run_episode(settings: CrowdNavSettings, variant: str, episode: int, seed: in
     """One CrowdNav episode with one planner variant (``orca`` included); the result row."""
     row = {"episode": int(episode), "seed": int(seed), "variant": variant,
            "scene": settings.scene, "setting": settings.setting}
-    started = time.perf_counter()
-    try:
-        log, _ = simulate_episode(settings, variant, episode, seed, record_trajectories=False)
-        row.update(crowd_fields(episode_metrics(log)[0]))
-    except ImportError:
-        raise
-    except Exception as exc:
-        row.update(outcome="error", message=f"{type(exc).__name__}: {exc}")
-    row["wall_time"] = time.perf_counter() - started
-    return row
+    return measured_row(row, lambda: simulate_episode(settings, variant, episode, seed,
+                                                      record_trajectories=False)[0])
 
 
 def run_benchmark(settings: CrowdNavSettings, variants, episodes: int, seed: int, out_dir, *,
@@ -342,15 +332,9 @@ def run_benchmark(settings: CrowdNavSettings, variants, episodes: int, seed: int
     require_pyrvo()  # the humans are ORCA agents whatever the robot
     table = ResultTable(out_dir, "crowdnav", ("variant", "episode", "seed"), settings.meta(),
                         resume=resume, overwrite=overwrite)
-    run_all(run_episode, [(settings, v, e, seed) for v in variants for e in range(episodes)],
-            table, label=f"crowdnav {settings.scene} {settings.setting}",
-            key=lambda task: (task[1], task[2], task[3]), workers=workers, progress=progress,
-            describe=lambda row: f"{row['variant']} episode {row['episode']}: {row['outcome']}")
-    per_variant = {}
-    for v in variants:
-        rows = [r for r in table.rows if r["variant"] == v and r["seed"] == seed
-                and r["episode"] < episodes]
-        per_variant[v] = summarise(rows)
+    per_variant = run_variants(run_episode, settings, variants, episodes, seed, table,
+                               label=f"crowdnav {settings.scene} {settings.setting}",
+                               workers=workers, progress=progress)
     summary = dict(per_variant[variants[0]])
     summary.update(scene=settings.scene, setting=settings.setting, solver=settings.solver,
                    seed=seed, variants=per_variant, out=str(Path(out_dir) / "crowdnav.csv"))

@@ -266,21 +266,29 @@ def episode_scenario(settings: CrowdSettings, episode: int, seed: int):
 def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int) -> dict:
     """One crossing with one planner variant (``orca`` included); the result row."""
     row = {"episode": int(episode), "seed": int(seed), "variant": variant}
-    started = time.perf_counter()
-    try:
+
+    def run():
         scenario, draw = episode_scenario(settings, episode, seed)
         row.update(draw)
         rng = np.random.default_rng([seed, episode])
         if variant == "orca":
-            episode_log = simulate_orca(scenario, PlannerConfig(), rng,
-                                        record_trajectories=False)
-        else:
-            solver = SolverConfig.named(settings.solver)
-            if settings.n_samples:
-                solver = replace(solver, n_samples=settings.n_samples)
-            episode_log = simulate(scenario, PlannerConfig.variant(variant), solver, rng,
-                                   record_trajectories=False)
-        row.update(crowd_fields(episode_metrics(episode_log)[0]))
+            return simulate_orca(scenario, PlannerConfig(), rng, record_trajectories=False)
+        solver = SolverConfig.named(settings.solver)
+        if settings.n_samples:
+            solver = replace(solver, n_samples=settings.n_samples)
+        return simulate(scenario, PlannerConfig.variant(variant), solver, rng,
+                        record_trajectories=False)
+
+    return measured_row(row, run)
+
+
+def measured_row(row: dict, run) -> dict:
+    """``row`` with the :func:`crowd_fields` of the episode ``run()`` returns and its
+    ``wall_time``; ``outcome="error"`` and the message when ``run`` raises (an ImportError, a
+    missing extra, propagates). Shared by the crowd benchmarks."""
+    started = time.perf_counter()
+    try:
+        row.update(crowd_fields(episode_metrics(run())[0]))
     except ImportError:
         raise
     except Exception as exc:
@@ -340,16 +348,22 @@ def run_benchmark(settings: CrowdSettings, variants, episodes: int, seed: int, o
     scene_files(settings.data, settings.scene)  # fail early on a bad scene
     table = ResultTable(out_dir, "crowd", ("variant", "episode", "seed"), settings.meta(),
                         resume=resume, overwrite=overwrite)
-    run_all(run_episode, [(settings, v, e, seed) for v in variants for e in range(episodes)],
-            table, label="crowd", key=lambda task: (task[1], task[2], task[3]),
-            workers=workers, progress=progress,
-            describe=lambda row: f"{row['variant']} episode {row['episode']}: {row['outcome']}")
-    per_variant = {}
-    for v in variants:
-        rows = [r for r in table.rows if r["variant"] == v and r["seed"] == seed
-                and r["episode"] < episodes]
-        per_variant[v] = summarise(rows)
+    per_variant = run_variants(run_episode, settings, variants, episodes, seed, table,
+                               label="crowd", workers=workers, progress=progress)
     summary = dict(per_variant[variants[0]])
     summary.update(scene=settings.scene, seed=seed, variants=per_variant,
                    out=str(Path(out_dir) / "crowd.csv"))
     return summary
+
+
+def run_variants(run_episode, settings, variants, episodes: int, seed: int, table, *, label,
+                 workers=None, progress=True) -> dict:
+    """:func:`~dsmpepc_nlp.bench.runner.run_all` over every (variant, episode) of a crowd
+    benchmark (``run_episode(settings, variant, episode, seed)``) into ``table``; the
+    :func:`summarise` of each variant's rows, by variant."""
+    run_all(run_episode, [(settings, v, e, seed) for v in variants for e in range(episodes)],
+            table, label=label, key=lambda task: (task[1], task[2], task[3]),
+            workers=workers, progress=progress,
+            describe=lambda row: f"{row['variant']} episode {row['episode']}: {row['outcome']}")
+    return {v: summarise([r for r in table.rows if r["variant"] == v and r["seed"] == seed
+                          and r["episode"] < episodes]) for v in variants}
