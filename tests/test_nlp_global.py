@@ -140,3 +140,31 @@ def test_no_compile_falls_back_to_the_virtual_machine_with_one_warning(tmp_path,
     value, gradient, hessian = first.call("H", _random_z(SMALL_CONFIG, 1, 7)[0])
     assert np.isfinite(value).all() and np.isfinite(gradient).all()
     np.testing.assert_allclose(hessian, hessian.T, atol=1e-12)
+
+
+def test_newton_on_the_global_graph_returns_finite_records(tmp_path, monkeypatch):
+    """``SolverConfig.fast(graph="global")``: no re-linearisation, records in the box."""
+    from dsmpepc_nlp.core.config import SolverConfig
+    from dsmpepc_nlp.solve.nlp import NlpSolver
+    from dsmpepc_nlp.solve.sampling import structured_starts
+
+    monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv("DSMPEPC_NO_COMPILE", "1")
+    state, world, goal = _demo()
+    solver = NlpSolver(SMALL_CONFIG, SolverConfig.fast(graph="global", n_screen=4,
+                                                       max_iter=10))
+    cycle = Cycle.prepare(state, world, goal, SMALL_CONFIG)
+    records = solver.solve(cycle, structured_starts(state, goal, SMALL_CONFIG))
+    solved = [r for r in records if r.status != "screened"]
+    assert len(solved) == solver.n_solved
+    assert all(s["outer"] == 0 for s in solver.last_stats)
+    lower, upper = np.array(SMALL_CONFIG.z_lower), np.array(SMALL_CONFIG.z_upper)
+    for record in records:
+        assert np.all(np.isfinite(record.z)) and np.isfinite(record.exact_cost)
+        assert np.all(record.z >= lower) and np.all(record.z <= upper)
+    for record in solved:
+        # A Newton solve never ends above its start on the smooth cost.
+        assert record.smooth_cost <= float(
+            g.flat_cost(SMALL_CONFIG, solver.global_sizes)(
+                record.z0, g.flatten_parameters(g.pack_parameters(cycle, solver.global_sizes))
+            )) + 1e-9

@@ -477,6 +477,9 @@ class SolverConfig:
     """|delta| of the hard-turn starts, rad (near the box's edge)."""
     turn_distance: float = 2.0
     """Target distance r of the turn starts, m."""
+    graph: str = "local"
+    """The cost graph ``newton`` minimises: ``local`` (models along each start's rollout,
+    re-linearised) or ``global`` (the cycle's tables, compiled C; see docs/nlp.md)."""
 
     def __post_init__(self):
         if self.method not in SOLVER_METHODS:
@@ -493,6 +496,8 @@ class SolverConfig:
                                 "trust_radius": dict(low=0.0, low_open=True, high=1.0),
                                 "soft_turn": dict(low=0.0), "hard_turn": dict(low=0.0),
                                 "turn_distance": positive})
+        if self.graph not in ("local", "global"):
+            _fail("SolverConfig", "graph", self.graph, "'local' or 'global'")
         if self.newton_hessian not in ("differences", "exact"):
             _fail("SolverConfig", "newton_hessian", self.newton_hessian,
                   "'differences' or 'exact'")

@@ -3,7 +3,8 @@
 Prints, on the crowded demo scene (map + 12 pedestrians), the error of the global graph
 against the exact cost at random z (exact and default temperatures), and the time per
 evaluation of the cost, its gradient and its Hessian in CasADi's virtual machine and as
-compiled C (with the build time). ``docs/nlp.md`` quotes its output.
+compiled C (with the build time); with ``--compare-fast``, the fast method on the local and on
+the global graph side by side. ``docs/nlp.md`` quotes its output.
 """
 
 from __future__ import annotations
@@ -69,6 +70,32 @@ def speed(config: PlannerConfig, sizes: g.GraphSizes, cycle, repeats: int = 200)
     return result
 
 
+def compare_fast(config: PlannerConfig, cycles) -> dict:
+    """``fast`` on the local graph and on the global graph, side by side: build seconds, plan
+    time median / p95 (ms) and the share of cycles within 0.01 of the best of 4096 samples."""
+    from ..bench.crosscheck import crosscheck
+    from ..core.config import SolverConfig
+    from .planner import Planner
+
+    result = {}
+    for label, solver in (("fast_local", SolverConfig.fast()),
+                          ("fast_global", SolverConfig.fast(graph="global"))):
+        started = time.perf_counter()
+        planner = Planner(config, solver)
+        build = time.perf_counter() - started
+        times = []
+        for state, world, goal in cycles:
+            tick = time.perf_counter()
+            planner.plan(state, world, goal, dock=False)
+            times.append(time.perf_counter() - tick)
+        check = crosscheck(cycles, config, solver)
+        result[label] = {"build_s": build, "plan_ms_median": 1e3 * float(np.median(times)),
+                         "plan_ms_p95": 1e3 * float(np.percentile(times, 95)),
+                         "within_0.01": float(np.mean(check.gap <= 0.01)),
+                         "gap_median": float(np.median(check.gap))}
+    return result
+
+
 def main(argv=None) -> int:
     from ..bench.crosscheck import demo_cycles
 
@@ -76,12 +103,16 @@ def main(argv=None) -> int:
     parser.add_argument("--cycles", type=int, default=4)
     parser.add_argument("--max-objects", type=int, default=12)
     parser.add_argument("--ray-samples", type=int, default=64)
+    parser.add_argument("--compare-fast", action="store_true",
+                        help="also plan every cycle with fast on both graphs and cross-check")
     args = parser.parse_args(argv)
     config = PlannerConfig()
     sizes = g.GraphSizes(max_objects=args.max_objects, ray_samples=args.ray_samples)
     cycles = demo_cycles(config, args.cycles, seed=0, n_samples=64)
     report = {"sizes": str(sizes), "accuracy": accuracy(config, sizes, cycles),
               "speed": speed(config, sizes, Cycle.prepare(*cycles[0], config))}
+    if args.compare_fast:
+        report["fast"] = compare_fast(config, cycles)
     print(json.dumps(report, indent=2))
     return 0
 

@@ -24,6 +24,7 @@ import numpy as np
 from ..core.config import PlannerConfig, RobotState, SolverConfig
 from ..core.control_law import rollout
 from ..core.errors import InputError
+from . import compiled, nlp_global
 from .newton import minimize
 from .nlp_graph import (
     PARAMETER_NAMES,
@@ -219,6 +220,13 @@ class NlpSolver:
         self.spread = box_samples(config, self.solver_config.n_spread, self.solver_config.seed)
         self.screen = box_samples(config, self.solver_config.n_screen,
                                   self.solver_config.seed + 1)
+        self._global = None
+        if self.solver_config.graph == "global" and self.solver_config.method == "newton":
+            self.global_sizes = nlp_global.GraphSizes()
+            cost = nlp_global.flat_cost(config, self.global_sizes)
+            step = self.solver_config.fd_step * (self.upper - self.lower)
+            self._global = compiled.build(cost, cost.size1_in(1), step,
+                                          (config, self.global_sizes, "global"))
         self._lam_x = None
         self.last_stats = []
         self.build_s = time.perf_counter() - started
@@ -274,8 +282,14 @@ class NlpSolver:
         records = [StartRecord(name, z0, z0, "screened", False, 0, 0.0, math.nan,
                                float(costs[i])) for i, (name, z0) in enumerate(named)]
         best_cost, best_lam = math.inf, None
+        if self._global is not None:
+            self._global.bind(nlp_global.flatten_parameters(
+                nlp_global.pack_parameters(cycle, self.global_sizes)))
         for i in self._choose(named, costs):
             name, z0 = named[i]
+            if self._global is not None:
+                records[i], lam_x = self._run_global(name, z0), None
+                continue
             record, lam_x = self._run_outer(name, z0, screened.trajectories[i].poses, cycle,
                                             float(costs[i]))
             records[i] = record
@@ -290,6 +304,31 @@ class NlpSolver:
             for i, cost in zip(solved, exact):
                 records[i] = dataclasses.replace(records[i], exact_cost=float(cost))
         return records
+
+    def _run_global(self, name, z0) -> StartRecord:
+        """One trust-region Newton solve on the global graph (parameters already bound)."""
+        started = time.perf_counter()
+        fn = self._global
+
+        def f(z):
+            return float(fn.call("F", z)[0].item())
+
+        def f_g_h(z):
+            value, gradient, hessian = fn.call("H", z)
+            return value.item(), gradient.reshape(-1).copy(), hessian.copy()
+
+        result = minimize(f, f_g_h, z0, self.lower, self.upper,
+                          radius=self.solver_config.trust_radius,
+                          max_iter=self.solver_config.max_iter, tol=self.solver_config.tol)
+        elapsed = time.perf_counter() - started
+        self.last_stats.append({"name": name, "outer": 0, "t_wall_total": elapsed,
+                                "iter_count": result.nit, "nfev": result.nfev,
+                                "nhev": result.nhev})
+        if not (np.all(np.isfinite(result.x)) and math.isfinite(result.fun)):
+            return StartRecord(name, z0, z0, f"non-finite result ({result.status})", False,
+                               result.nit, elapsed)
+        return StartRecord(name, z0, self._snap(result.x), result.status,
+                           result.status != "non-finite", result.nit, elapsed, result.fun)
 
     def _run_outer(self, name, z0, poses, cycle, z0_cost=math.inf):
         """Solve from ``z0`` with models along ``poses``; re-take them while the solution
