@@ -203,9 +203,13 @@ def add_crowdnav(p) -> None:
                    help="circle or square crossing (default circle)")
     p.add_argument("--robot", default="invisible", choices=crowdnav.SETTINGS,
                    help="whether the humans see the robot (default invisible, the standard)")
-    p.add_argument("--episodes", type=options.positive, default=500)
-    p.add_argument("--seed", type=options.seed, default=0)
-    p.add_argument("--humans", type=options.positive, default=crowdnav.N_HUMANS)
+    p.add_argument("--episodes", type=options.positive, default=500,
+                   help="episodes per variant (default 500, CrowdNav's test set)")
+    p.add_argument("--seed", type=options.seed, default=0,
+                   help="seed of the episode draws (episode k of a seed is the same for every "
+                        "variant)")
+    p.add_argument("--humans", type=options.positive, default=crowdnav.N_HUMANS,
+                   help=f"ORCA humans (default {crowdnav.N_HUMANS})")
     p.add_argument("--variants", nargs="+", default=["mpepc", "ds-mpepc"],
                    help=f"{', '.join(PLANNER_VARIANTS)}, orca")
     p.add_argument("--duration", type=options.number(0.0, low_open=True),
