@@ -3,9 +3,12 @@
 import math
 
 import numpy as np
+import pytest
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
 from dsmpepc_nlp.core.world import OccupancyGrid, World
+from dsmpepc_nlp.sim.simulate import simulate
+from dsmpepc_nlp.sim.types import Agent, FixedGoal, Scenario
 from dsmpepc_nlp.solve.planner import Planner
 
 
@@ -56,3 +59,18 @@ def test_a_simulated_robot_driving_to_a_far_goal_is_not_called_deadlocked():
                        np.random.default_rng(0), record_trajectories=False)
     assert episode.outcomes == ["timeout"]
     assert episode.states[0, -1, 0] > 10.0
+
+
+def test_a_robot_at_the_coordinate_bound_gets_a_window_past_it():
+    # A robot may stand at the plausible bound (|x|, |y| <= 1e6 m); its navigation window then
+    # reaches past the bound. The fuzz suite found the episode's progress check raising there.
+    grid = OccupancyGrid.from_array(np.zeros((5, 5), bool), 0.1, (-6.0, -6.0))
+    robot, goal = (3.0, -1.0e6), (0.0, -1.0e6)
+    nav = World(grid).navigation(goal, 0.3, near=robot, reach=5.0)
+    assert nav.value(np.array(robot)) == pytest.approx(3.0, abs=0.2)
+    state = RobotState(*robot, 0.0)
+    scenario = Scenario("bound", (Agent("robot", state, FixedGoal(goal)),), grid, (),
+                        duration=0.4)
+    episode = simulate(scenario, PlannerConfig(), SolverConfig.sampling(n_samples=16),
+                       np.random.default_rng(0), record_trajectories=False)
+    assert np.all(np.isfinite(episode.states))

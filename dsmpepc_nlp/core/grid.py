@@ -124,6 +124,19 @@ class OccupancyGrid:
         self._origin = _readonly(finite_vector("origin", origin, 2, MAX_COORDINATE))
 
     @classmethod
+    def derived(cls, occupied, resolution, origin) -> OccupancyGrid:
+        """A grid the package derives from a checked one (a navigation window, a crop).
+
+        ``MAX_COORDINATE`` bounds what a user gives; a window around a robot standing at that
+        bound reaches past it by up to the robot's reach, so only finiteness is checked here.
+        """
+        grid = cls.__new__(cls)
+        grid._occupied = _readonly(np.array(occupied, dtype=bool))
+        grid._resolution = float(resolution)
+        grid._origin = _readonly(finite_vector("origin", origin, 2))
+        return grid
+
+    @classmethod
     def from_array(cls, occupied, resolution, origin=(0.0, 0.0)) -> OccupancyGrid:
         """Same as the constructor; see :class:`OccupancyGrid`."""
         return cls(occupied, resolution, origin)

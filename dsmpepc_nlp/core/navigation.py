@@ -90,7 +90,8 @@ def _crop(grid, window):
     ax0, ay0, ax1, ay1 = max(x0, 0), max(y0, 0), min(x1, nx), min(y1, ny)
     if ax0 < ax1 and ay0 < ay1:
         occ[ay0 - y0:ay1 - y0, ax0 - x0:ax1 - x0] = grid.occupied[ay0:ay1, ax0:ax1]
-    return OccupancyGrid(occ, grid.resolution, grid.origin + grid.resolution * np.array([x0, y0]))
+    return OccupancyGrid.derived(occ, grid.resolution,
+                                 grid.origin + grid.resolution * np.array([x0, y0]))
 
 
 def _free(grid, window, inflation_radius):
