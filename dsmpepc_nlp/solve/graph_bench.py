@@ -96,6 +96,24 @@ def compare_fast(config: PlannerConfig, cycles) -> dict:
     return result
 
 
+def scenario_cycles(name: str, seed: int = 0):
+    """``(cycles, config)``: every planning cycle of a sampling episode of a built-in scenario
+    (what ``dsmpepc crosscheck`` cross-checks)."""
+    import dataclasses
+
+    from ..core.config import SolverConfig
+    from ..sim.scenario import load_scenario
+    from ..sim.simulate import simulate
+
+    scenario = load_scenario(name)
+    episode = simulate(scenario, PlannerConfig.variant("ds-mpepc"), SolverConfig.sampling(),
+                       np.random.default_rng(seed), record_trajectories=False)
+    config = episode.config()
+    if scenario.agents[0].robot is not None:
+        config = dataclasses.replace(config, robot=scenario.agents[0].robot)
+    return episode.planning_inputs(0), config
+
+
 def main(argv=None) -> int:
     from ..bench.crosscheck import demo_cycles
 
@@ -105,7 +123,15 @@ def main(argv=None) -> int:
     parser.add_argument("--ray-samples", type=int, default=64)
     parser.add_argument("--compare-fast", action="store_true",
                         help="also plan every cycle with fast on both graphs and cross-check")
+    parser.add_argument("--scenario", default=None,
+                        help="with --compare-fast: the cycles of this scenario's sampling "
+                             "episode instead of the demo scene (accuracy and speed skipped)")
     args = parser.parse_args(argv)
+    if args.scenario is not None:
+        cycles, config = scenario_cycles(args.scenario)
+        print(json.dumps({"scenario": args.scenario, "cycles": len(cycles),
+                          "fast": compare_fast(config, cycles)}, indent=2))
+        return 0
     config = PlannerConfig()
     sizes = g.GraphSizes(max_objects=args.max_objects, ray_samples=args.ray_samples)
     cycles = demo_cycles(config, args.cycles, seed=0, n_samples=64)
