@@ -2,7 +2,8 @@
 
 Identical parameters except the two DS-MPEPC switches (``PlannerConfig.variant``). The solver
 is ``nlp`` (IPOPT) unless the environment variable ``DSMPEPC_CLAIMS_SOLVER`` names another
-(``sampling``, ``fast``). Seed 0 throughout. Each test asserts the paper's claim as stated.
+(``sampling``, ``fast``). Seed 0 throughout. Each test asserts the paper's claim as stated;
+the claim-map tests at the end assert what ``dsmpepc claims`` found instead (sampler only).
 """
 
 import os
@@ -78,6 +79,8 @@ def test_following_a_pedestrian_ends_without_collision(name):
 MAP_FOUND = [
     # family, first axis, second axis, {variant: outcome of every robot}
     ("t-corridor", 1.0, 1.8, {"mpepc": "deadlock", "ds-mpepc": "success"}),
+    ("narrow-corridor", 1.4, 12.6, {"mpepc": "deadlock", "ds-mpepc": "success"}),
+    ("doorway", 1.0, 1.5, {"mpepc": "success", "ds-mpepc": "success"}),
 ]
 
 
