@@ -168,3 +168,11 @@ def test_newton_on_the_global_graph_returns_finite_records(tmp_path, monkeypatch
             g.flat_cost(SMALL_CONFIG, solver.global_sizes)(
                 record.z0, g.flatten_parameters(g.pack_parameters(cycle, solver.global_sizes))
             )) + 1e-9
+
+
+def test_fast_global_is_a_named_solver():
+    from dsmpepc_nlp.core.config import SolverConfig
+
+    solver = SolverConfig.named("fast-global")
+    assert solver.method == "newton" and solver.graph == "global"
+    assert SolverConfig.named("fast").graph == "local"

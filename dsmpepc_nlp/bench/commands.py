@@ -36,7 +36,7 @@ from .params import parse_params
 from .results import parse_indices
 from .timing import run_bench
 
-SOLVERS = ("nlp", "fast", "sampling")
+SOLVERS = ("nlp", "fast", "sampling", "fast-global")
 PLANNER_VARIANTS = tuple(VARIANTS)
 
 

@@ -529,8 +529,10 @@ class SolverConfig:
 
     @classmethod
     def named(cls, name: str) -> SolverConfig:
-        """``nlp`` (IPOPT), ``fast`` or ``sampling``, as on the command line."""
-        makers = {"nlp": cls, "fast": cls.fast, "sampling": cls.sampling}
+        """``nlp`` (IPOPT), ``fast``, ``fast-global`` (fast on the global graph) or
+        ``sampling``, as on the command line."""
+        makers = {"nlp": cls, "fast": cls.fast, "sampling": cls.sampling,
+                  "fast-global": lambda: cls.fast(graph="global")}
         if name not in makers:
             raise InputError(f"solver = {name!r}: must be one of {', '.join(makers)}")
         return makers[name]()
