@@ -1,0 +1,69 @@
+"""The house rules, checked: one-way imports (pyproject's import-linter contracts), module and
+function sizes. A rule broken on purpose says why where it is broken."""
+
+import ast
+import os
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "dsmpepc_nlp"
+
+MAX_MODULE_LINES = 400
+"""A longer module names its reason in its docstring with the words 'Longer than 400 lines:'."""
+MAX_FUNCTION_LINES = 80
+"""Lines of a function's body, its docstring left out."""
+
+
+def _modules():
+    return sorted(p for p in PACKAGE.rglob("*.py") if "scenarios" not in p.parts)
+
+
+def test_import_contracts_hold():
+    importlinter_cli = pytest.importorskip("importlinter.cli")
+    here = os.getcwd()
+    os.chdir(ROOT)
+    try:
+        status = importlinter_cli.lint_imports(config_filename=str(ROOT / "pyproject.toml"))
+    finally:
+        os.chdir(here)
+    assert status == 0, "an import contract is broken: run `lint-imports` for the details"
+
+
+@pytest.mark.parametrize("path", _modules(), ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_module_is_small_or_says_why(path):
+    source = path.read_text()
+    lines = len(source.splitlines())
+    if lines <= MAX_MODULE_LINES:
+        return
+    docstring = ast.get_docstring(ast.parse(source)) or ""
+    assert "Longer than 400 lines:" in docstring, (
+        f"{path.name} has {lines} lines: split it, or give the reason in its docstring")
+
+
+def _body_lines(node) -> int:
+    body = node.body
+    first = body[0]
+    has_docstring = (isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant)
+                     and isinstance(first.value.value, str))
+    start = first.end_lineno + 1 if has_docstring and len(body) > 1 else first.lineno
+    return node.end_lineno - start + 1
+
+
+@pytest.mark.parametrize("path", _modules(), ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_functions_are_short(path):
+    tree = ast.parse(path.read_text())
+    long = [(node.name, node.lineno, _body_lines(node)) for node in ast.walk(tree)
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))
+            and _body_lines(node) > MAX_FUNCTION_LINES]
+    assert not long, f"functions over {MAX_FUNCTION_LINES} lines in {path.name}: {long}"
+
+
+def test_the_rules_can_fail(tmp_path):
+    """The size rules see a long function and a long module without a reason."""
+    long_function = "def f():\n    '''doc'''\n" + "    x = 1\n" * (MAX_FUNCTION_LINES + 1)
+    node = ast.parse(long_function).body[0]
+    assert _body_lines(node) == MAX_FUNCTION_LINES + 1
+    short_function = "def f():\n    '''doc'''\n" + "    x = 1\n" * MAX_FUNCTION_LINES
+    assert _body_lines(ast.parse(short_function).body[0]) == MAX_FUNCTION_LINES
