@@ -3,6 +3,7 @@ function sizes. A rule broken on purpose says why where it is broken."""
 
 import ast
 import os
+import re
 from pathlib import Path
 
 import pytest
@@ -11,7 +12,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "dsmpepc_nlp"
 
 MAX_MODULE_LINES = 400
-"""A longer module names its reason in its docstring with the words 'Longer than 400 lines:'."""
+"""A longer module gives its reason in its docstring, in a sentence "Longer than ... 400 lines"."""
 MAX_FUNCTION_LINES = 80
 """Lines of a function's body, its docstring left out."""
 
@@ -38,7 +39,7 @@ def test_module_is_small_or_says_why(path):
     if lines <= MAX_MODULE_LINES:
         return
     docstring = ast.get_docstring(ast.parse(source)) or ""
-    assert "Longer than 400 lines:" in docstring, (
+    assert re.search(r"Longer than[^.]*400 lines", docstring), (
         f"{path.name} has {lines} lines: split it, or give the reason in its docstring")
 
 

@@ -1,4 +1,9 @@
-"""Planner configuration: frozen, validated dataclasses whose defaults are METHOD.md's."""
+"""Planner configuration: frozen, validated dataclasses whose defaults are METHOD.md's.
+
+Longer than the usual 400 lines: every tunable value of the method and of the solvers is a field
+here, with its unit, its source (paper, IROS 2012 or "our choice") and its validation, so that
+one file answers "what are the defaults and where do they come from".
+"""
 
 from __future__ import annotations
 
