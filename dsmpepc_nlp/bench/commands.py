@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import math
 import time
 from pathlib import Path
 
@@ -34,6 +33,7 @@ from . import barn, claims, crowdnav, crowds, sweep
 from .crosscheck import crosscheck
 from .params import parse_params
 from .results import parse_indices
+from .summary import fmt, summarised, summary_text  # noqa: F401 (summary_text re-exported)
 from .timing import run_bench
 
 SOLVERS = ("nlp", "fast", "sampling", "fast-global")
@@ -92,7 +92,7 @@ def run_crosscheck(args) -> int:
         print(json.dumps(json_clean(summary), allow_nan=False))
         return 0
     print(f"{summary['cycles']} cycles: gap (NLP - sampling) median "
-          f"{_fmt(summary['gap_median'])}, p95 {_fmt(summary['gap_p95'])}, within {args.tol}: "
+          f"{fmt(summary['gap_median'])}, p95 {fmt(summary['gap_p95'])}, within {args.tol}: "
           f"{100 * summary['share_within_tol']:.0f}%; NLP plan statuses {summary['statuses']}")
     print(f"figure: {figure}")
     return 0
@@ -341,36 +341,6 @@ def _grid(name: str, quick: bool) -> tuple:
     return (family.quick, family.quick2) if quick else (family.values, family.values2)
 
 
-def summary_text(summary: dict, indent: str = "") -> str:
-    """A benchmark summary as ``key: value`` lines, nested dicts indented (never as JSON text)."""
-    lines = []
-    for key, value in summary.items():
-        if isinstance(value, dict):
-            lines.append(f"{indent}{key}:")
-            lines.append(summary_text(value, indent + "  "))
-        else:
-            lines.append(f"{indent}{key}: {_fmt(value)}")
-    return "\n".join(line for line in lines if line)
-
-
-def _fmt(value) -> str:
-    if isinstance(value, float):
-        return "nan" if math.isnan(value) else f"{value:.4g}"
-    return str(value)
-
-
-def _summarised(run):
-    """``run(args) -> summary`` as a command: the summary printed, exit status 0."""
-    def command(args) -> int:
-        summary = run(args)
-        if args.json:
-            print(json.dumps(json_clean(summary), allow_nan=False, separators=(",", ":")))
-        else:
-            print(summary_text(summary))
-        return 0
-    return command
-
-
 def register(sub, scenario_options) -> None:
     """Add ``crosscheck``, ``bench``, ``benchmark {barn,crowd,scenarios}`` and ``sweep`` to the
     subparsers ``sub``; ``scenario_options(parser)`` adds the scenario/variant/solver/seed/out
@@ -399,14 +369,14 @@ def register(sub, scenario_options) -> None:
              run_scenarios)):
         p = kinds.add_parser(name, help=text)
         add(p)
-        p.set_defaults(func=_summarised(run))
+        p.set_defaults(func=summarised(run))
     p = sub.add_parser("sweep", help="grid of cost parameters x scenarios x seeds",
                        description="Run a parameter grid; tables and heatmaps.")
     add_sweep(p)
-    p.set_defaults(func=_summarised(run_sweep))
+    p.set_defaults(func=summarised(run_sweep))
     p = sub.add_parser("claims", help="the claim map: variants x solvers on generated "
                        "T-corridor, narrow-corridor and doorway geometry",
                        description="Run the scenario families cell by cell; tables, a figure "
                        "and an example where the variants differ.")
     add_claims(p)
-    p.set_defaults(func=_summarised(run_claims))
+    p.set_defaults(func=summarised(run_claims))
