@@ -17,8 +17,8 @@ from dsmpepc_nlp.core.costs import (
     evaluate,
     inverse_ttg,
 )
-from dsmpepc_nlp.solve.planner import Planner
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
+from dsmpepc_nlp.solve.planner import Planner
 
 DS = PlannerConfig.ds_mpepc()
 MP = PlannerConfig.mpepc()

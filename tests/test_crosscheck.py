@@ -4,8 +4,8 @@ import math
 
 import numpy as np
 
-from dsmpepc_nlp.core.config import PlannerConfig, SolverConfig
 from dsmpepc_nlp.bench.crosscheck import CrosscheckResult, crosscheck, demo_cycles
+from dsmpepc_nlp.core.config import PlannerConfig, SolverConfig
 
 
 def test_demo_cycles_are_reproducible_and_move_the_robot():

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
-from dsmpepc_nlp.sim.simulate import Agent, FixedGoal, ParkedRobot, Pedestrian, Scenario, simulate
 from dsmpepc_nlp.core.world import OccupancyGrid
+from dsmpepc_nlp.sim.simulate import Agent, FixedGoal, ParkedRobot, Pedestrian, Scenario, simulate
 
 TIMING = {"plan_time"}
 """Wall times are the only logged quantities allowed to differ between runs."""

@@ -4,6 +4,8 @@ function sizes. A rule broken on purpose says why where it is broken."""
 import ast
 import os
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -68,3 +70,11 @@ def test_the_rules_can_fail(tmp_path):
     assert _body_lines(node) == MAX_FUNCTION_LINES + 1
     short_function = "def f():\n    '''doc'''\n" + "    x = 1\n" * MAX_FUNCTION_LINES
     assert _body_lines(ast.parse(short_function).body[0]) == MAX_FUNCTION_LINES
+
+
+def test_ruff_is_clean():
+    """``ruff check`` with pyproject's rules (E, F, W, B, I) passes on the whole tree."""
+    pytest.importorskip("ruff")
+    done = subprocess.run([sys.executable, "-m", "ruff", "check", "--no-cache", str(ROOT)],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stdout[-2000:]

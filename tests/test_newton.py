@@ -57,10 +57,10 @@ def test_minimize_never_accepts_an_increase():
                     reason="SolverConfig does not offer method='newton' yet")
 def test_newton_nlp_solver_records_are_finite_and_in_the_box():
     from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
+    from dsmpepc_nlp.core.world import DynamicObstacle, World
     from dsmpepc_nlp.solve.nlp import NlpSolver
     from dsmpepc_nlp.solve.nlp_graph import GraphSizes
     from dsmpepc_nlp.solve.sampling import structured_starts
-    from dsmpepc_nlp.core.world import DynamicObstacle, World
 
     cfg = PlannerConfig()
     solver = NlpSolver(cfg, SolverConfig(method="newton", max_iter=15, n_screen=4),

@@ -7,10 +7,10 @@ import pytest
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
 from dsmpepc_nlp.core.errors import InputError
-from dsmpepc_nlp.solve.planner import Planner
-from dsmpepc_nlp.solve.cycle import Cycle
-from dsmpepc_nlp.solve.sampling import evaluate_batch
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
+from dsmpepc_nlp.solve.cycle import Cycle
+from dsmpepc_nlp.solve.planner import Planner
+from dsmpepc_nlp.solve.sampling import evaluate_batch
 
 SAMPLING = SolverConfig.sampling(n_samples=256)
 

@@ -7,6 +7,10 @@ z with the exact batched cost, runs the solver from the warm start and the best 
 (``n_solved``), and returns one :class:`~dsmpepc_nlp.solve.records.StartRecord` per start, each
 with its exact cost: the verdict stays the exact cost. Every knob is a ``SolverConfig`` field.
 Why these settings, and what they measured, is in ``docs/nlp.md``.
+
+Longer than 400 lines while it carries the solver plumbing of both graphs (the local one with
+its re-linearisation loop, and the global one); the split into problem, solvers built once and
+multistart that issue 11 asks for is not finished (``docs/nlp.md``).
 """
 
 from __future__ import annotations

@@ -22,9 +22,8 @@ every z:
 
 Everything but the look-ups is SX (compact derivatives); the cost is ``costs.assemble``, the
 formula the exact cost uses. Accuracy and speed, with the commands, are in ``docs/nlp.md``.
-The module is longer than most (~600 lines) because the graph's pieces and the packing of
-their parameters must change together; splitting them would put one parameter layout in two
-files.
+Longer than 400 lines (~600) because the graph's pieces and the packing of their parameters
+must change together; splitting them would put one parameter layout in two files.
 """
 
 from __future__ import annotations

@@ -10,6 +10,10 @@ map and navigation tables themselves and is honest at every z (the one to embed)
 
 Why each form, and what was measured: ``docs/nlp.md``. With exact temperatures this graph
 equals ``costs.evaluate`` at the reference (tested).
+
+Longer than 400 lines because the graph and the packing of its local models share one column
+layout (``NAV_COLUMNS``, ``MAP_COLUMNS``, the near-object columns); the module goes once the
+built-in solvers run on the global graph (``docs/nlp.md``, what is not reached yet).
 """
 
 from __future__ import annotations

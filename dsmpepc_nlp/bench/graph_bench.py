@@ -1,4 +1,4 @@
-"""Accuracy and speed of the global cost graph: ``python -m dsmpepc_nlp.solve.graph_bench``.
+"""Accuracy and speed of the global cost graph: ``python -m dsmpepc_nlp.bench.graph_bench``.
 
 Prints, on the crowded demo scene (map + 12 pedestrians), the error of the global graph
 against the exact cost at random z (exact and default temperatures), and the time per
@@ -10,17 +10,22 @@ the global graph side by side. ``docs/nlp.md`` quotes its output.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import time
 
 import numpy as np
 
-from ..core.config import PlannerConfig, SmoothingConfig
+from ..core.config import PlannerConfig, SmoothingConfig, SolverConfig
 from ..core.control_law import rollout
 from ..core.costs import evaluate
-from . import compiled
-from . import nlp_global as g
-from .cycle import Cycle
+from ..sim.scenario import load_scenario
+from ..sim.simulate import simulate
+from ..solve import compiled
+from ..solve import nlp_global as g
+from ..solve.cycle import Cycle
+from ..solve.planner import Planner
+from .crosscheck import crosscheck, demo_cycles
 
 
 def accuracy(config: PlannerConfig, sizes: g.GraphSizes, cycles, n_z: int = 200) -> dict:
@@ -73,10 +78,6 @@ def speed(config: PlannerConfig, sizes: g.GraphSizes, cycle, repeats: int = 200)
 def compare_fast(config: PlannerConfig, cycles) -> dict:
     """``fast`` on the local graph and on the global graph, side by side: build seconds, plan
     time median / p95 (ms) and the share of cycles within 0.01 of the best of 4096 samples."""
-    from ..bench.crosscheck import crosscheck
-    from ..core.config import SolverConfig
-    from .planner import Planner
-
     result = {}
     for label, solver in (("fast_local", SolverConfig.fast()),
                           ("fast_global", SolverConfig.fast(graph="global"))):
@@ -99,12 +100,6 @@ def compare_fast(config: PlannerConfig, cycles) -> dict:
 def scenario_cycles(name: str, seed: int = 0):
     """``(cycles, config)``: every planning cycle of a sampling episode of a built-in scenario
     (what ``dsmpepc crosscheck`` cross-checks)."""
-    import dataclasses
-
-    from ..core.config import SolverConfig
-    from ..sim.scenario import load_scenario
-    from ..sim.simulate import simulate
-
     scenario = load_scenario(name)
     episode = simulate(scenario, PlannerConfig.variant("ds-mpepc"), SolverConfig.sampling(),
                        np.random.default_rng(seed), record_trajectories=False)
@@ -115,7 +110,6 @@ def scenario_cycles(name: str, seed: int = 0):
 
 
 def main(argv=None) -> int:
-    from ..bench.crosscheck import demo_cycles
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cycles", type=int, default=4)
