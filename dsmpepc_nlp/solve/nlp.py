@@ -47,32 +47,12 @@ __all__ = ["NlpSolver", "cost_function", "pack_parameters", "GraphSizes", "PARAM
 
 def cost_function(config: PlannerConfig, sizes: GraphSizes | None = None,
                   smoothing=None) -> ca.Function:
-    """The smooth DS-MPEPC cost as a ``casadi.Function`` to embed in your own problem.
+    """The local graph the built-in solvers minimise, as a ``casadi.Function``.
 
-    Parameters
-    ----------
-    config : PlannerConfig
-        Method and parameters; the temperatures come from ``config.smoothing`` unless
-        ``smoothing`` is given (``SmoothingConfig.exact()`` gives the non-smooth forms).
-    sizes : GraphSizes, optional
-        Fixed sizes of the obstacle, map and navigation blocks.
-
-    Returns
-    -------
-    casadi.Function
-        Named inputs ``z`` (4: r [m], theta [rad], delta [rad], v_max [m/s]), ``state`` (5),
-        ``goal`` (3), ``obstacle_circles``, ``obstacle_velocities``, ``near_obstacles``,
-        ``nav_model``, ``map_model`` (shapes from :func:`parameter_shapes`; the last three are
-        local models along a reference trajectory, see :func:`pack_parameters`); named
-        outputs ``cost``,
-        ``progress``, ``action``, ``collision``, ``heading``, ``terminal``.
-
-    Examples
-    --------
-    >>> f = cost_function(PlannerConfig())                       # doctest: +SKIP
-    >>> params = pack_parameters(state, world, goal, PlannerConfig(), GraphSizes(),
-    ...                          reference=z_guess)                 # doctest: +SKIP
-    >>> f(z=[2.0, 0.0, 0.0, 0.8], **params)["cost"]              # doctest: +SKIP
+    Inputs ``z`` and the blocks of :data:`PARAMETER_NAMES` (local models along a reference
+    trajectory, packed by :func:`pack_parameters`); outputs ``cost`` and each term. Honest only
+    near the reference: to embed the cost in your own problem use
+    :func:`dsmpepc_nlp.solve.nlp_global.cost_function`, which reads the map itself.
     """
     return build_cost_function(config, GraphSizes() if sizes is None else sizes, smoothing)
 

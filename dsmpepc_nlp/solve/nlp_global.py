@@ -40,6 +40,7 @@ from ..core.costs import TERM_NAMES, assemble, disk_inverse_ttc, heading_error, 
 from ..core.errors import InputError
 from ..core.geometry import body_to_world
 from ..core.smooth import CASADI, relu, sigmoid, smax, softmax_objects, softmin_objects
+from .compiled import blocks_finite, flatten_blocks
 
 FAR = 1.0e3
 """Distance reported by padding objects and by a world without a map, m:
@@ -528,13 +529,12 @@ def pack_parameters(cycle, sizes: GraphSizes) -> dict:
 
 def flatten_parameters(params: dict) -> np.ndarray:
     """The blocks as one vector, each column-major (CasADi's ``vec``), in PARAMETER_NAMES order."""
-    return np.concatenate([np.asarray(params[n], dtype=float).reshape(-1, order="F")
-                           for n in PARAMETER_NAMES])
+    return flatten_blocks(params, PARAMETER_NAMES)
 
 
 def is_finite_parameters(params: dict) -> bool:
     """True when every block is finite."""
-    return all(np.all(np.isfinite(params[n])) for n in PARAMETER_NAMES)
+    return blocks_finite(params, PARAMETER_NAMES)
 
 
 def flat_cost(config: PlannerConfig, sizes: GraphSizes, smoothing=None) -> ca.Function:

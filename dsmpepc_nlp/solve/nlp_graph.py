@@ -31,6 +31,7 @@ from ..core.errors import InputError
 from ..core.geometry import body_to_world, footprint_points
 from ..core.grid import FAR  # distance to nothing (also padding objects): exp(-FAR^2/s^2) == 0
 from ..core.smooth import CASADI, relu, sigmoid, smax, softmax_objects, softmin_objects
+from .compiled import blocks_finite, flatten_blocks
 
 MODEL_RADIUS = 0.5
 """Trust radius of the local quadratic models, m: the curvature term is damped by
@@ -505,13 +506,12 @@ def pack_parameters(state: RobotState, world, goal, config: PlannerConfig, sizes
 
 def flatten_parameters(params: dict) -> np.ndarray:
     """The blocks as one vector, each column-major (CasADi's ``vec``), in PARAMETER_NAMES order."""
-    return np.concatenate([np.asarray(params[n], dtype=float).reshape(-1, order="F")
-                           for n in PARAMETER_NAMES])
+    return flatten_blocks(params, PARAMETER_NAMES)
 
 
 def is_finite_parameters(params: dict) -> bool:
     """True when every block is finite."""
-    return all(np.all(np.isfinite(params[n])) for n in PARAMETER_NAMES)
+    return blocks_finite(params, PARAMETER_NAMES)
 
 
 __all__ = ["FAR", "MODEL_RADIUS", "GraphSizes", "PARAMETER_NAMES", "build_cost_function",
