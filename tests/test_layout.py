@@ -78,3 +78,14 @@ def test_ruff_is_clean():
     done = subprocess.run([sys.executable, "-m", "ruff", "check", "--no-cache", str(ROOT)],
                           capture_output=True, text=True)
     assert done.returncode == 0, done.stdout[-2000:]
+
+
+def test_readme_layout_table_names_every_module():
+    """The README's layout table and the tree agree, module for module."""
+    readme = (ROOT / "README.md").read_text()
+    table = readme[readme.index("## Layout"):]
+    table = table[:table.index("\n## ", 1)]
+    named = set(re.findall(r"`([a-z_]+\.py)`", table))
+    modules = {p.name for p in _modules() if p.name != "__init__.py"}
+    assert modules - named == set(), "modules the README's layout table does not name"
+    assert named - modules == set(), "names in the README's layout table with no module"
