@@ -6,7 +6,7 @@ radius 0.075 m whose centre is at world ``(x, y) = (-4.425 + 0.15 r, 5.175 + 0.1
 ``y = 9.6`` the world is open. The robot starts at (-2.25, 3.0) facing +y and must get within 1 m
 of (-2.25, 13.0) within 100 s; the first collision ends the run.
 
-Rasterisation: every cylinder is drawn into an :class:`~dsmpepc_nlp.world.OccupancyGrid` of
+Rasterisation: every cylinder is drawn into an :class:`~dsmpepc_nlp.core.grid.OccupancyGrid` of
 ``resolution`` 0.05 m (default) as the cells whose square overlaps its disk. The grid's cell
 centres are placed on the cylinder centres, so a cylinder becomes the 3 x 3 block of cells that is
 its bounding square: exact along the axes, at most 0.031 m too large on the diagonals (the grid

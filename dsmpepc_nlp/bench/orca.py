@@ -118,7 +118,7 @@ class _Trajectory:
 
 @dataclass(frozen=True)
 class OrcaPlan:
-    """The fields of :class:`~dsmpepc_nlp.planner.Plan` that the closed loop and its log use.
+    """The fields of :class:`~dsmpepc_nlp.solve.planner.Plan` that the closed loop and its log use.
 
     ``x`` and ``fun`` are NaN (ORCA has no z and no cost); ``trajectory`` holds the command of
     this cycle over the horizon; ``status`` is ``"sampling"`` (the log only knows the planner's
@@ -246,7 +246,7 @@ class OrcaPlanner:
 
 
 def simulate_orca(scenario, config: PlannerConfig, rng=None, **kwargs):
-    """:func:`~dsmpepc_nlp.simulate.simulate` with every robot driven by :class:`OrcaPlanner`.
+    """:func:`~dsmpepc_nlp.sim.simulate.simulate` with every robot driven by :class:`OrcaPlanner`.
 
     ``config`` supplies the robot (speed and rate limits, footprint) and ``dt``; its cost
     settings are unused. ImportError with the install hint when pyrvo is missing.

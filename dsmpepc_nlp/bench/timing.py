@@ -35,7 +35,7 @@ def run_bench(n_cycles: int = 20, seed: int = 0, config: PlannerConfig | None = 
     Parameters
     ----------
     n_cycles : int
-        Cycles of :func:`~dsmpepc_nlp.crosscheck.demo_cycles`.
+        Cycles of :func:`~dsmpepc_nlp.bench.scenes.demo_cycles`.
     seed : int
     config : PlannerConfig, optional
     ladder : sequence of int

@@ -338,7 +338,7 @@ def evaluate(trajectory: Trajectory, world, goal, config: PlannerConfig) -> Cost
     Parameters
     ----------
     trajectory : Trajectory
-        From :func:`~dsmpepc_nlp.control_law.rollout`, batched or single.
+        From :func:`~dsmpepc_nlp.core.control_law.rollout`, batched or single.
     world : World
         Static map and dynamic obstacles at the plan's start time.
     goal : array_like, (2,)

@@ -285,7 +285,7 @@ class OccupancyGrid:
 
     @classmethod
     def from_yaml(cls, path) -> OccupancyGrid:
-        """Load a ROS ``map_server`` map (YAML + PGM); see :func:`~dsmpepc_nlp.mapfile.read_map`.
+        """Load a ROS ``map_server`` map (YAML + PGM); see :func:`~dsmpepc_nlp.core.mapfile.read_map`.
 
         Raises
         ------
@@ -298,7 +298,7 @@ class OccupancyGrid:
     def to_yaml(self, path, image_name=None) -> None:
         """Write a ROS ``map_server`` YAML file and a binary PGM beside it, atomically.
 
-        See :func:`~dsmpepc_nlp.mapfile.write_map`; ``image_name`` defaults to the YAML's stem
+        See :func:`~dsmpepc_nlp.core.mapfile.write_map`; ``image_name`` defaults to the YAML's stem
         + ".pgm".
         """
         write_map(path, self._occupied, self._resolution, self._origin, image_name)

@@ -1,4 +1,4 @@
-"""Navigation metrics: pure functions of a logged :class:`~dsmpepc_nlp.simulate.Episode`.
+"""Navigation metrics: pure functions of a logged :class:`~dsmpepc_nlp.sim.episode.Episode`.
 
 Every metric of a robot is measured over its *run*: the states from the start up to and
 including the one at which its outcome was decided (afterwards it stands still).

@@ -177,7 +177,7 @@ def resolve(name_or_path) -> Path:
 
 
 def load_scenario(name_or_path) -> Scenario:
-    """Read, validate and build a :class:`~dsmpepc_nlp.simulate.Scenario`.
+    """Read, validate and build a :class:`~dsmpepc_nlp.sim.types.Scenario`.
 
     Parameters
     ----------

@@ -103,7 +103,7 @@ def _jit_options(config: PlannerConfig, sizes: GraphSizes, directory: str) -> di
 
 
 def _newton_functions(z, flat, objective, extra, span, solver: SolverConfig) -> tuple:
-    """``(f, fgh)`` for :func:`~dsmpepc_nlp.newton.minimize`: the objective alone, and
+    """``(f, fgh)`` for :func:`~dsmpepc_nlp.solve.newton.minimize`: the objective alone, and
     objective, gradient and Hessian (``solver.newton_hessian``: ``exact`` SX, or
     ``differences`` of the gradient at 5 points in one mapped call)."""
     f = ca.Function("dsmpepc_f", [z, flat], [objective], extra)
@@ -170,7 +170,7 @@ class NlpSolver:
     config : PlannerConfig
     solver : SolverConfig
         Plugin (``ipopt``, ``sqpmethod``, ``fatrop``) or ``newton`` (no plugin: the
-        trust-region method of :mod:`~dsmpepc_nlp.newton`, whose ``tol`` is the predicted
+        trust-region method of :mod:`~dsmpepc_nlp.solve.newton`, whose ``tol`` is the predicted
         decrease counted as converged; 1e-3 suits the 0.01 cost tolerance), options,
         iteration limit, ``n_spread`` and ``seed``.
     sizes : GraphSizes, optional
@@ -242,14 +242,14 @@ class NlpSolver:
         cycle : Cycle
             The state, world, goal and configuration of this plan, prepared once.
         starts : dict of str to ndarray (4,)
-            Named starts (e.g. from :func:`~dsmpepc_nlp.sampling.structured_starts`); the
+            Named starts (e.g. from :func:`~dsmpepc_nlp.solve.sampling.structured_starts`); the
             ``n_spread`` box starts are added as ``spread-0``, ``spread-1``, ...
 
         Returns
         -------
         list of StartRecord
             In the order of ``starts``, the spread starts, then the screening samples, each
-            with its ``exact_cost`` (from :func:`~dsmpepc_nlp.sampling.evaluate_batch`).
+            with its ``exact_cost`` (from :func:`~dsmpepc_nlp.solve.sampling.evaluate_batch`).
             Starts the NLP did not run from have status ``screened``, ``nit`` 0 and
             ``z = z0`` (a candidate like any other: the plan is never worse than the best
             start). Solver trouble never raises: the
@@ -406,7 +406,7 @@ class NlpSolver:
                 "stats": timing}
 
     def _run_newton(self, z_start, p) -> dict:
-        """One trust-region Newton solve (:func:`~dsmpepc_nlp.newton.minimize`)."""
+        """One trust-region Newton solve (:func:`~dsmpepc_nlp.solve.newton.minimize`)."""
         f_only, fgh = self._newton
         p = ca.DM(p)
         timing = {"t_f": 0.0, "t_fgh": 0.0}

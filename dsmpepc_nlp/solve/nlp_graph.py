@@ -266,7 +266,7 @@ def build_cost_function(config: PlannerConfig, sizes: GraphSizes, smoothing=None
     the measured velocity within the limits), ``goal`` (3: x, y, and 1 for a Euclidean NF /
     0 for the local NF models), ``obstacle_circles`` ((K C_obj) x 3: x, y, radius now,
     object-major), ``obstacle_velocities`` (K x 2), ``nav_model`` ((N+1) x 8), ``map_model``
-    ((N+1) x 8C). Outputs: ``cost`` and each term of :data:`~dsmpepc_nlp.costs.TERM_NAMES`.
+    ((N+1) x 8C). Outputs: ``cost`` and each term of :data:`~dsmpepc_nlp.core.costs.TERM_NAMES`.
     """
     smoothing = config.smoothing if smoothing is None else smoothing
     shapes = parameter_shapes(config, sizes)
