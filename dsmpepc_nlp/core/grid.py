@@ -285,7 +285,9 @@ class OccupancyGrid:
 
     @classmethod
     def from_yaml(cls, path) -> OccupancyGrid:
-        """Load a ROS ``map_server`` map (YAML + PGM); see :func:`~dsmpepc_nlp.core.mapfile.read_map`.
+        """Load a ROS ``map_server`` map (YAML + PGM).
+
+        See :func:`~dsmpepc_nlp.core.mapfile.read_map`.
 
         Raises
         ------
