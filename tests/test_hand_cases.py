@@ -132,3 +132,16 @@ def test_on_the_goal_the_heading_error_is_zero_whatever_the_heading(heading):
     geometry = exact_geometry(stop[None], world, goal, DS)
     assert geometry.heading_error[0, 0, 0] == 0.0
     assert evaluate(stop, world, goal, DS).terms["heading"] == 0.0
+
+
+def test_time_to_goal_off_the_axes():
+    # TTG = |g - p_N| / (v_N u_N . (g - p_N) / |g - p_N|), with the goal off both axes of the
+    # end pose (a goal on an axis hides a sign error in the other coordinate).
+    traj = rollout(np.array([3.0, 0.4, -0.5, 0.9]), RobotState(0.2, -0.1, 0.3, 0.5, 0.0), DS)
+    goal = np.array([4.0, 2.5])
+    x, y, phi = traj.poses[-1]
+    d = goal - np.array([x, y])
+    along = traj.v[-1] * (math.cos(phi) * d[0] + math.sin(phi) * d[1]) / np.linalg.norm(d)
+    assert along > 0.0
+    costs = evaluate(traj, World(), goal, DS)
+    assert costs.ttg == pytest.approx(np.linalg.norm(d) / along, rel=1e-9)
