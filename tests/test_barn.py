@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from dsmpepc_nlp import bench_cli
-from dsmpepc_nlp.bench import barn
+from dsmpepc_nlp import cli
+from dsmpepc_nlp.bench import barn, commands
 
 
 def write_world(folder, index, extra=((10, 5),), with_metrics=True):
@@ -128,14 +128,14 @@ def test_command_line_json_and_refusal_to_overwrite(tmp_path, capsys):
     argv = ["benchmark", "barn", "--data", str(tmp_path / "data"), "--worlds", "0",
             "--solver", "sampling", "--samples", "64", "--time-limit", "0.4", "--workers", "1",
             "--out", str(tmp_path / "out"), "--json"]
-    assert bench_cli.main(argv) == 0
+    assert cli.main(argv) == 0
     summary = json.loads(capsys.readouterr().out)
     for key in ("worlds", "success_rate", "collision_rate", "timeout_rate", "mean_score"):
         assert key in summary
     assert summary["worlds"] == 1
-    assert bench_cli.main(argv) == 2
+    assert cli.main(argv) == 2
     assert "--resume" in capsys.readouterr().err
-    assert bench_cli.main(argv + ["--resume"]) == 0
+    assert cli.main(argv + ["--resume"]) == 0
 
 
 @pytest.mark.slow
@@ -156,4 +156,4 @@ def test_overrides_reach_the_configuration(tmp_path):
     assert config.robot.footprint == barn.jackal_robot().footprint
     assert s.meta()["overrides"] == {"sigma_static": 0.05, "robot.omega_limit": 1.0}
     with pytest.raises(ValueError, match="one value"):
-        bench_cli._overrides(["sigma_static=0.05,0.1"])
+        commands.overrides(["sigma_static=0.05,0.1"])

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from dsmpepc_nlp import bench_cli
+from dsmpepc_nlp import cli
 from dsmpepc_nlp.bench import crowdnav as cn
 from dsmpepc_nlp.core.config import RobotState
 
@@ -121,17 +121,17 @@ def test_command_runs_resumes_and_reports_the_split(tmp_path, capsys):
     argv = ["benchmark", "crowdnav", "--episodes", "2", "--variants", "ds-mpepc", "orca",
             "--samples", "16", "--duration", "2", "--workers", "1", "--robot", "visible",
             "--out", str(tmp_path / "out"), "--json"]
-    assert bench_cli.main(argv) == 0
+    assert cli.main(argv) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["solver"] == "sampling" and summary["setting"] == "visible"
     assert set(summary["variants"]) == {"ds-mpepc", "orca"}
     for figures in summary["variants"].values():
         assert figures["episodes"] == 2 and "at_fault_rate" in figures
         assert figures["error_rate"] == 0
-    assert bench_cli.main(argv + ["--resume", "--episodes", "3"]) == 0
+    assert cli.main(argv + ["--resume", "--episodes", "3"]) == 0
     captured = capsys.readouterr()
     assert "6 runs, 4 already done, 2 to run" in captured.err
-    assert bench_cli.main(argv[:-1] + ["--episodes", "0"]) == 2
+    assert cli.main(argv[:-1] + ["--episodes", "0"]) == 2
     assert "--episodes" in capsys.readouterr().err
 
 

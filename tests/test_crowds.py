@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from dsmpepc_nlp import bench_cli
+from dsmpepc_nlp import cli
 from dsmpepc_nlp.bench import crowds
 
 
@@ -78,21 +78,21 @@ def test_benchmark_two_variants_and_resume(tmp_path, capsys):
             "--episodes", "2", "--variants", "ds-mpepc", "orca", "--solver", "sampling",
             "--samples", "32", "--duration", "8", "--workers", "1",
             "--out", str(tmp_path / "out"), "--json"]
-    assert bench_cli.main(argv) == 0
+    assert cli.main(argv) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["episodes"] == 2 and "collision_rate" in summary
     for variant in summary["variants"].values():  # the fair split is in every crowd table
         assert variant["at_fault_rate"] + variant["struck_rate"] == variant["collision_rate"]
         assert 0.0 <= variant["spl"] <= 1.0
     assert set(summary["variants"]) == {"ds-mpepc", "orca"}
-    assert bench_cli.main(argv + ["--resume", "--episodes", "3"]) == 0
+    assert cli.main(argv + ["--resume", "--episodes", "3"]) == 0
     captured = capsys.readouterr()
     assert "6 runs, 4 already done, 2 to run" in captured.err
     assert json.loads(captured.out)["episodes"] == 3
 
 
 def test_unknown_scene_is_an_error(tmp_path, capsys):
-    assert bench_cli.main(["benchmark", "crowd", "--data", str(tmp_path), "--scene", "nope",
+    assert cli.main(["benchmark", "crowd", "--data", str(tmp_path), "--scene", "nope",
                            "--out", str(tmp_path / "o")]) == 2
     assert "nope" in capsys.readouterr().err
 

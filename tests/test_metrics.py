@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
+from dsmpepc_nlp.core.jsonio import json_clean
 from dsmpepc_nlp.core.world import OccupancyGrid
 from dsmpepc_nlp.sim.metrics import (
     collision_kind,
@@ -15,7 +16,6 @@ from dsmpepc_nlp.sim.metrics import (
     discomfort,
     episode_metrics,
     following_distance,
-    json_safe,
     min_dynamic_clearance,
     min_static_clearance,
     path_length,
@@ -108,7 +108,7 @@ def test_episode_metrics_are_json_safe_and_one_per_robot():
     ep = straight_episode()
     rows = episode_metrics(ep)
     assert len(rows) == 1 and rows[0]["outcome"] == "success"
-    text = json.dumps(json_safe(rows), allow_nan=False)
+    text = json.dumps(json_clean(rows), allow_nan=False)
     assert '"following_distance": null' in text
 
 

@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from dsmpepc_nlp import bench_cli
+from dsmpepc_nlp import cli
 from dsmpepc_nlp.bench import sweep
 
 TINY = """name: tiny
@@ -78,7 +78,7 @@ def test_two_parameters_give_a_pair_heatmap_and_cli_json(tmp_path, tiny, capsys)
     argv = ["sweep", "--param", "s_ttc=0.5,1", "--param", "s_ttg=1e-3,1e-2", "--scenarios",
             tiny, "--seeds", "0", "--solver", "sampling", "--samples", "16", "--workers", "1",
             "--out", str(tmp_path / "o"), "--json"]
-    assert bench_cli.main(argv) == 0
+    assert cli.main(argv) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["runs"] == 4 and summary["failed"] == 0
     assert (tmp_path / "o" / "sweep_s_ttc_s_ttg.png").exists()
@@ -88,7 +88,7 @@ def test_two_parameters_give_a_pair_heatmap_and_cli_json(tmp_path, tiny, capsys)
 
 
 def test_unknown_scenario_fails_before_running(tmp_path, capsys):
-    assert bench_cli.main(["sweep", "--param", "a=0.5", "--scenarios", "no-such-scenario",
+    assert cli.main(["sweep", "--param", "a=0.5", "--scenarios", "no-such-scenario",
                            "--out", str(tmp_path / "o")]) == 2
     assert "no-such-scenario" in capsys.readouterr().err
 
@@ -122,7 +122,7 @@ def test_variants_side_by_side_with_orca(tmp_path, tiny, capsys):
     argv = ["benchmark", "scenarios", "--scenarios", tiny, "--variants", "mpepc", "orca",
             "--seeds", "0-1", "--solver", "sampling", "--samples", "16", "--workers", "1",
             "--out", str(tmp_path / "s"), "--json"]
-    assert bench_cli.main(argv) == 0
+    assert cli.main(argv) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["runs"] == 4
     assert summary["variants"]["orca"]["tiny"]["runs"] == 2

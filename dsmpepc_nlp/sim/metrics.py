@@ -17,7 +17,6 @@ import math
 import numpy as np
 
 from ..core.geometry import footprint_points
-from ..core.jsonio import json_clean
 from ..core.world import World
 
 DISCOMFORT_GAP = 0.2
@@ -265,6 +264,3 @@ def episode_metrics(episode) -> list:
     """:func:`robot_metrics` of every robot, in order."""
     return [robot_metrics(episode, i) for i in range(episode.n_robots)]
 
-
-json_safe = json_clean
-"""NaN and inf replaced by None, recursively: :func:`~dsmpepc_nlp.core.jsonio.json_clean`."""
