@@ -4,7 +4,8 @@ import math
 
 import numpy as np
 
-from dsmpepc_nlp.bench.crosscheck import CrosscheckResult, crosscheck, demo_cycles
+from dsmpepc_nlp.bench.crosscheck import CrosscheckResult, crosscheck
+from dsmpepc_nlp.bench.scenes import demo_cycles
 from dsmpepc_nlp.core.config import PlannerConfig, SolverConfig
 
 

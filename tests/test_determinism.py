@@ -5,7 +5,8 @@ import pytest
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
 from dsmpepc_nlp.core.world import OccupancyGrid
-from dsmpepc_nlp.sim.simulate import Agent, FixedGoal, ParkedRobot, Pedestrian, Scenario, simulate
+from dsmpepc_nlp.sim.simulate import simulate
+from dsmpepc_nlp.sim.types import Agent, FixedGoal, ParkedRobot, Pedestrian, Scenario
 
 TIMING = {"plan_time"}
 """Wall times are the only logged quantities allowed to differ between runs."""

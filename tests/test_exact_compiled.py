@@ -203,7 +203,7 @@ def test_build_command_compiles_or_says_numpy(capsys):
 
 
 def test_bench_reports_both_paths_side_by_side():
-    from dsmpepc_nlp.bench.crosscheck import demo_cycles
+    from dsmpepc_nlp.bench.scenes import demo_cycles
     from dsmpepc_nlp.bench.timing import exact_timing
 
     config = PlannerConfig()

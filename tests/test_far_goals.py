@@ -51,7 +51,8 @@ def test_a_simulated_robot_driving_to_a_far_goal_is_not_called_deadlocked():
     # The deadlock rule measures progress on the navigation function; on the map's window
     # alone a robot that left the map toward a far goal seemed to lose ground and was stopped
     # as "deadlock" after 10 s, about 10 m out.
-    from dsmpepc_nlp.sim.simulate import Agent, FixedGoal, Scenario, simulate
+    from dsmpepc_nlp.sim.simulate import simulate
+    from dsmpepc_nlp.sim.types import Agent, FixedGoal, Scenario
 
     scenario = Scenario("far", (Agent("r", RobotState(0.3, 0.5, 0.0), FixedGoal((1000.0, 0.5))),),
                         small_map(), duration=16.0)

@@ -26,7 +26,8 @@ from dsmpepc_nlp.sim.metrics import (
     spl,
     time_to_goal,
 )
-from dsmpepc_nlp.sim.simulate import Agent, FixedGoal, Pedestrian, Scenario, simulate
+from dsmpepc_nlp.sim.simulate import simulate
+from dsmpepc_nlp.sim.types import Agent, FixedGoal, Pedestrian, Scenario
 
 
 def straight_episode(outcome="success", n=11, dt=0.2):

@@ -89,7 +89,7 @@ def _walled_world():
 
 
 def _demo_cycle():
-    from dsmpepc_nlp.bench.crosscheck import demo_cycles
+    from dsmpepc_nlp.bench.scenes import demo_cycles
 
     return demo_cycles(CONFIG, 4, seed=0, n_samples=64)[3]
 

@@ -19,7 +19,7 @@ CONFIG = PlannerConfig()
 
 
 def _demo():
-    from dsmpepc_nlp.bench.crosscheck import demo_cycles
+    from dsmpepc_nlp.bench.scenes import demo_cycles
 
     return demo_cycles(CONFIG, 2, seed=0, n_samples=64)[1]
 

@@ -11,7 +11,7 @@ from dsmpepc_nlp.core.world import OccupancyGrid, World
 pytest.importorskip("pyrvo")
 
 from dsmpepc_nlp.bench import orca  # noqa: E402
-from dsmpepc_nlp.sim.simulate import Agent, FixedGoal, Pedestrian, Scenario  # noqa: E402
+from dsmpepc_nlp.sim.types import Agent, FixedGoal, Pedestrian, Scenario  # noqa: E402
 
 
 def test_unicycle_conversion():

@@ -7,7 +7,8 @@ import pytest
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
 from dsmpepc_nlp.core.world import OccupancyGrid, World
 from dsmpepc_nlp.sim.panels import cost_panels
-from dsmpepc_nlp.sim.simulate import Agent, FixedGoal, Pedestrian, Scenario, simulate
+from dsmpepc_nlp.sim.simulate import simulate
+from dsmpepc_nlp.sim.types import Agent, FixedGoal, Pedestrian, Scenario
 from dsmpepc_nlp.viz import plots
 
 

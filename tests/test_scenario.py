@@ -15,7 +15,7 @@ from dsmpepc_nlp.sim.scenario import (
     load_scenario,
     parse_scenario,
 )
-from dsmpepc_nlp.sim.simulate import FixedGoal, FollowGoal
+from dsmpepc_nlp.sim.types import FixedGoal, FollowGoal
 
 BUILTINS = ["circle-10", "circle-4", "hall", "l-corridor", "narrow-corridor", "t-corridor"]
 

@@ -7,16 +7,9 @@ import pytest
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotConfig, RobotState, SolverConfig
 from dsmpepc_nlp.core.world import OccupancyGrid
-from dsmpepc_nlp.sim.simulate import (
-    Agent,
-    Episode,
-    FixedGoal,
-    FollowGoal,
-    ParkedRobot,
-    Pedestrian,
-    Scenario,
-    simulate,
-)
+from dsmpepc_nlp.sim.episode import Episode
+from dsmpepc_nlp.sim.simulate import simulate
+from dsmpepc_nlp.sim.types import Agent, FixedGoal, FollowGoal, ParkedRobot, Pedestrian, Scenario
 
 SOLVER = SolverConfig(method="sampling", n_samples=256)
 CONFIG = PlannerConfig.variant("ds-mpepc")

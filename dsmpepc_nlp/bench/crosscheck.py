@@ -8,7 +8,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.config import PlannerConfig, SolverConfig
-from .scenes import demo_cycles, demo_world  # noqa: F401 (the demo scene's old home)
 
 
 @dataclass(frozen=True)

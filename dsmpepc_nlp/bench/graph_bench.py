@@ -25,7 +25,8 @@ from ..solve import compiled
 from ..solve import nlp_global as g
 from ..solve.cycle import Cycle
 from ..solve.planner import Planner
-from .crosscheck import crosscheck, demo_cycles
+from .crosscheck import crosscheck
+from .scenes import demo_cycles
 
 
 def accuracy(config: PlannerConfig, sizes: g.GraphSizes, cycles, n_z: int = 200) -> dict:

@@ -17,7 +17,7 @@ from ..core.config import PlannerConfig, SolverConfig
 from ..solve import exact
 from ..solve.cycle import Cycle
 from ..solve.sampling import box_samples, evaluate_batch
-from .crosscheck import demo_cycles
+from .scenes import demo_cycles
 
 LADDER = (64, 128, 256, 512, 1024, 2048, 4096, 8192, 16384)
 """Sample counts tried for the sampler at equal exact cost."""

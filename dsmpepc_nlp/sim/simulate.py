@@ -37,14 +37,7 @@ from .outcomes import (  # noqa: F401 (re-exported)
     window_progress,
 )
 from .scenario import start_states
-from .types import (  # noqa: F401 (re-exported: the old home of the scenario types)
-    Agent,
-    FixedGoal,
-    FollowGoal,
-    ParkedRobot,
-    Pedestrian,
-    Scenario,
-)
+from .types import FixedGoal, Scenario
 
 _footprint_gap = footprint_gap  # the old private name
 
