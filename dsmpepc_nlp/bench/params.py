@@ -1,9 +1,10 @@
 """Configuration fields named on the command line: ``s_ttc=0.25,0.5`` or ``robot.v_limit=1.5``.
 
 ``sweep --param`` and ``benchmark barn --set`` name fields of :class:`PlannerConfig` the same
-way: ``part.field`` for any part, a bare name for a ``cost`` field. :func:`parse_params` checks
-the names and numbers, :func:`configure` builds the variant with them replaced (the
-configuration validates the values).
+way: ``part.field`` for any part, a bare name for a ``cost`` field; a switch (such as
+``ttg_along_nf``) takes 0 or 1. :func:`parse_params` checks the names and numbers,
+:func:`configure` builds the variant with them replaced (the configuration validates the
+values).
 """
 
 from __future__ import annotations
@@ -61,6 +62,10 @@ def configure(params: dict, variant: str) -> PlannerConfig:
         section, field = _resolve_name(name)
         if section == "horizon" and field == "n_steps":
             value = int(value)
+        elif isinstance(getattr(getattr(config, section), field), bool):
+            if value not in (0, 1):
+                raise InputError(f"--param {name}={value!r}: a switch takes 0 (off) or 1 (on)")
+            value = bool(value)
         changes.setdefault(section, {})[field] = value
     parts = {s: dataclasses.replace(getattr(config, s), **c) for s, c in changes.items()}
     return dataclasses.replace(config, **parts)

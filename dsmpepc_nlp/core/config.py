@@ -204,6 +204,15 @@ class CostConfig:
     """Width sigma_{1/TTG} of the inverse time-to-goal bell, 1/s (paper)."""
     ttc_range: float = 8.0
     """Range of the static time-to-collision ray march, m: beyond it 1/TTC = 0 (our choice)."""
+    ttg_along_nf: bool = False
+    """Our extension, not the paper's (default off): measure the terminal time to goal along the
+    navigation function, ``TTG = NF(p_N) / (v_N u . e)`` with ``e`` the unit NF descent
+    direction at the horizon's end, instead of the straight line ``|g - p_N| / (v_N u . g^)``.
+    Why: the straight line measures through walls. Behind a wall it calls a trajectory that
+    drives along the only route 'not approaching the goal' (``C_TTG = 1``, the terminal reward a
+    stop facing free space also earns, METHOD.md section 5) and one facing the wall
+    'approaching' it; the NF measures the route the robot will drive, as the progress term does
+    (:func:`~dsmpepc_nlp.core.costs.inverse_ttg_along_nf`). Without a map both are the same."""
 
     def __post_init__(self):
         positive = dict(low=0.0, low_open=True)
@@ -222,6 +231,8 @@ class CostConfig:
             "w_action": dict(low=0.0),
             "w_terminal": dict(low=0.0),
         })
+        if not isinstance(self.ttg_along_nf, bool):
+            _fail("CostConfig", "ttg_along_nf", self.ttg_along_nf, "True or False")
         try:
             disabled = tuple(self.disabled) if not isinstance(self.disabled, str) else None
         except TypeError:

@@ -88,6 +88,7 @@ ON_PROGRESS = PARAMETERS.index('on_progress')  # and the five switches
 NEAR_STATIC = PARAMETERS.index('near_static')
 GOAL_TOL = PARAMETERS.index('goal_tol')
 CULL_SIGMAS = PARAMETERS.index('cull_sigmas')
+TTG_NF = PARAMETERS.index('ttg_nf')
 
 _SINC_SERIES = 1e-4
 _KAPPA_FLOOR = 1e-12
@@ -385,8 +386,8 @@ def _culled_distance(fp, poses, pred, radii, pts):
 
 
 @jit
-def _heading_error(nf, p, x, y, phi):
-    """``costs.heading_error`` against the NF descent direction at the terminal pose."""
+def _descent(nf, p, x, y):
+    """``-NavigationFunction.gradient`` at the terminal position, (0, 0) on the goal."""
     dx, dy = x - p[GOAL_X], y - p[GOAL_Y]
     norm = math.sqrt(dx * dx + dy * dy)
     gx, gy = (dx / norm, dy / norm) if norm > 0 else (0.0, 0.0)
@@ -401,6 +402,12 @@ def _heading_error(nf, p, x, y, phi):
     ex, ey = -gx, -gy
     if math.hypot(x - p[GOAL_X], y - p[GOAL_Y]) <= p[GOAL_TOL]:
         ex, ey = 0.0, 0.0
+    return ex, ey
+
+
+@jit
+def _heading_error(ex, ey, phi):
+    """``costs.heading_error`` against the NF descent direction ``(ex, ey)``."""
     if ex == 0 and ey == 0:
         return 0.0
     cos_phi, sin_phi = math.cos(phi), math.sin(phi)
@@ -418,6 +425,16 @@ def _inverse_ttg(p, x, y, phi, v_terminal):
     if squared <= p[GOAL_TOL2]:
         return math.inf
     return max(along / (squared + 1e-12), 0.0)
+
+
+@jit
+def _inverse_ttg_along_nf(p, nf_end, ex, ey, x, y, phi, v_terminal):
+    """``costs.inverse_ttg_along_nf`` (exact; on the goal as ``exact_geometry`` marks it)."""
+    if math.hypot(x - p[GOAL_X], y - p[GOAL_Y]) <= p[GOAL_TOL]:
+        return math.inf
+    norm = math.sqrt(ex * ex + ey * ey + 1e-24)
+    along = v_terminal * (math.cos(phi) * ex + math.sin(phi) * ey) / norm
+    return max(along / (max(nf_end, 0.0) + 1e-12), 0.0)
 
 
 @jit
@@ -449,10 +466,14 @@ def _assemble(p, nf, poses, vs, omegas, survival, terminal_inv, scratch, out):
         scratch[2, k - 1] = (p[C_V] * v * v + p[C_W] * w * w) * dt
     final = survival[n_steps]
     x, y, phi = poses[n_steps, 0], poses[n_steps, 1], poses[n_steps, 2]
-    inv_ttg = _inverse_ttg(p, x, y, phi, vs[n_steps - 1])
+    ex, ey = _descent(nf, p, x, y)
+    if p[TTG_NF] != 0.0:
+        inv_ttg = _inverse_ttg_along_nf(p, nf_prev, ex, ey, x, y, phi, vs[n_steps - 1])
+    else:
+        inv_ttg = _inverse_ttg(p, x, y, phi, vs[n_steps - 1])
     s_ttg, s_ttc = p[S_TTG], p[S_TTC]
     raw = (_pairwise(scratch[0], n_steps), _pairwise(scratch[2], n_steps),
-           _pairwise(scratch[1], n_steps), _heading_error(nf, p, x, y, phi) * final,
+           _pairwise(scratch[1], n_steps), _heading_error(ex, ey, phi) * final,
            -final * math.exp(-(inv_ttg * inv_ttg) / (s_ttg * s_ttg))
            * math.exp(-(terminal_inv * terminal_inv) / (s_ttc * s_ttc)))
     total = 0.0

@@ -25,7 +25,7 @@ PARAMETERS = (
     "nf_grid", "nf_res", "nf_ox", "nf_oy", "goal_x", "goal_y", "goal_tol2",
     "w_progress", "w_action", "w_collision", "w_heading", "w_terminal",
     "on_progress", "on_action", "on_collision", "on_heading", "on_terminal",
-    "cull_floor", "near_static", "goal_tol", "cull_sigmas")
+    "cull_floor", "near_static", "goal_tol", "cull_sigmas", "ttg_nf")
 """Names of the kernel's scalar parameters, in the order of its parameter vector."""
 
 CULL_SIGMAS = 7.0
@@ -191,7 +191,7 @@ def parameter_vector(state, goal, config: PlannerConfig, grid, navigation,
         "goal_x": navigation.goal[0], "goal_y": navigation.goal[1],
         "goal_tol2": GOAL_TOLERANCE ** 2, "goal_tol": GOAL_TOLERANCE,
         "cull_floor": cull_floor, "cull_sigmas": cull_sigmas,
-        "near_static": _SIGNIFICANT_BELL * cost.sigma_static,
+        "near_static": _SIGNIFICANT_BELL * cost.sigma_static, "ttg_nf": cost.ttg_along_nf,
     }
     for name, weight, enabled in terms:
         values[f"w_{name}"] = weight

@@ -36,7 +36,7 @@ import numpy as np
 
 from ..core.config import PlannerConfig
 from ..core.control_law import clamp_measured, step_function, target_pose
-from ..core.costs import TERM_NAMES, assemble, disk_inverse_ttc, heading_error, inverse_ttg
+from ..core.costs import TERM_NAMES, assemble, disk_inverse_ttc, heading_error, terminal_inverse_ttg
 from ..core.errors import InputError
 from ..core.geometry import body_to_world
 from ..core.smooth import CASADI, relu, sigmoid, smax, softmax_objects, softmin_objects
@@ -386,7 +386,8 @@ def _final_functions(config, sizes, smoothing):
     # width as 1/TTC's (inverse_time * s_ttg / s_ttc), else C_TTG ~ 0 where it is exactly 1.
     ttg_smoothing = dataclasses.replace(
         smoothing, inverse_time=smoothing.inverse_time * config.cost.s_ttg / config.cost.s_ttc)
-    inv_ttg = inverse_ttg((end[0], end[1], end[2]), vs[-1], goal, CASADI, ttg_smoothing)
+    inv_ttg = terminal_inverse_ttg((end[0], end[1], end[2]), vs[-1], goal, nf[-1], descent,
+                                   config, CASADI, ttg_smoothing)
     sigma = ca.DM([[config.cost.sigma_static] + [config.cost.sigma_dynamic] * sizes.max_objects])
     sigma = ca.repmat(sigma, n, 1)  # CasADi does not broadcast a row
     total, terms, _ = assemble(distance, inverse, sigma, nf.T, vs, omegas, err, inv_ttg,

@@ -26,7 +26,7 @@ import numpy as np
 
 from ..core.config import PlannerConfig, RobotState
 from ..core.control_law import EXACT, clamp_measured, rollout, step_function, target_pose
-from ..core.costs import TERM_NAMES, assemble, disk_inverse_ttc, heading_error, inverse_ttg
+from ..core.costs import TERM_NAMES, assemble, disk_inverse_ttc, heading_error, terminal_inverse_ttg
 from ..core.errors import InputError
 from ..core.geometry import body_to_world, footprint_points
 from ..core.grid import FAR  # distance to nothing (also padding objects): exp(-FAR^2/s^2) == 0
@@ -314,7 +314,8 @@ def cost_expression(z, params, config, sizes, smoothing):
     # 4e-5 1/s by default, C_TTG >= 0.999 where it is exactly 1, and it scales with smoothing.
     ttg_smoothing = dataclasses.replace(
         smoothing, inverse_time=smoothing.inverse_time * config.cost.s_ttg / config.cost.s_ttc)
-    inv_ttg = inverse_ttg((end[0], end[1], end[2]), vs[-1], goal, CASADI, ttg_smoothing)
+    inv_ttg = terminal_inverse_ttg((end[0], end[1], end[2]), vs[-1], goal, nf[-1], descent,
+                                   config, CASADI, ttg_smoothing)
     inv_term = ca.SX(0)
     if config.terminal_cost:
         terminal = terminal_function(config, sizes, smoothing)
