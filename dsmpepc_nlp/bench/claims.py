@@ -3,11 +3,13 @@
 Runs the generated scenario families (:mod:`dsmpepc_nlp.sim.families`) cell by cell for the
 planner variants (``mpepc``, ``ds-mpepc``, ``pc-only``, ``terminal-only``) and solvers
 (``sampling``, ``nlp``), every cell with several seeds (each seed its own 0.1 m start
-perturbation). The cells are written as scenario files under ``OUT/scenarios/`` (a user opens
-any of them with ``dsmpepc run FILE``), every run is a row of the resumable table
-``OUT/claims.{json,csv}`` (run through :func:`~dsmpepc_nlp.bench.runner.run_all`), and the
-per-cell summary ``OUT/claims_cells.{json,csv}`` gives each cell's rates per variant and a
-verdict comparing DS-MPEPC with MPEPC:
+perturbation) and, when asked, several parameter settings (``--set s_ttc=0.25,0.5,1``: every
+combination, as ``sweep --param`` takes them; a run's ``params`` names its setting). The cells
+are written as scenario files under ``OUT/scenarios/`` (a user opens any of them with ``dsmpepc
+run FILE``), every run is a row of the resumable table ``OUT/claims.{json,csv}`` (run through
+:func:`~dsmpepc_nlp.bench.runner.run_all`), and the per-cell summary
+``OUT/claims_cells.{json,csv}`` gives each cell's rates per variant and a verdict comparing
+DS-MPEPC with MPEPC:
 
 ``claim``       DS-MPEPC succeeds in most seeds, MPEPC fails in most, mostly by deadlock;
 ``ds-mpepc``    DS-MPEPC succeeds in most seeds, MPEPC fails in most, but not mostly by deadlock;
@@ -16,7 +18,9 @@ verdict comparing DS-MPEPC with MPEPC:
 ``mpepc``       MPEPC succeeds in most seeds, DS-MPEPC does not.
 
 The figure ``OUT/claims_<solver>.png`` draws the rates against the geometry, one column per
-family; ``OUT/example-*.png`` shows, in the paper's style, one run (cell and seed) where the
+family (the first parameter setting), and with several settings
+``OUT/claims_<solver>_settings.png`` each setting's success and deadlock rates;
+``OUT/example-*.png`` shows, in the paper's style, one run (cell and seed) where the
 variants' outcomes differ, re-simulated with its trajectories.
 """
 
@@ -28,16 +32,17 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.config import PlannerConfig, SolverConfig
+from ..core.config import SolverConfig
 from ..core.files import atomic_write_text
 from ..core.jsonio import dumps
 from ..sim import families
 from ..sim.scenario import load_scenario
 from ..sim.simulate import simulate
 from ..viz import figures
+from .params import configure
 from .results import ResultTable, rows_to_csv
 from .runner import mean, run_all
-from .sweep import SweepSettings, run_one
+from .sweep import SweepSettings, _key_text, expand_grid, run_one
 
 CLAIM_VARIANTS = ("mpepc", "ds-mpepc", "pc-only", "terminal-only")
 CLAIM_SOLVERS = ("sampling", "nlp")
@@ -60,28 +65,41 @@ class ClaimSettings:
 
 
 def run_cell(cell: tuple, variant: str, solver: str, seed: int, path: str,
-             settings: ClaimSettings) -> dict:
-    """One run of a cell (its scenario file at ``path``); the row, failures recorded in it."""
+             settings: ClaimSettings, params: dict | None = None) -> dict:
+    """One run of a cell (its scenario file at ``path``) with the configuration fields
+    ``params`` replaced (:func:`~dsmpepc_nlp.bench.params.configure`); the row, failures
+    recorded in it."""
     name, x, y = cell
     family = families.family(name)
     sweep_settings = SweepSettings(variant=variant, solver=solver, n_samples=settings.n_samples,
                                    duration=settings.duration)
-    row = run_one({"params": {}, "variant": variant, "scenario": path, "seed": int(seed)},
-                  sweep_settings)
-    row.pop("key", None)
+    row = run_one({"params": dict(params or {}), "variant": variant, "scenario": path,
+                   "seed": int(seed)}, sweep_settings)
+    row["params"] = row.pop("key")
     row.update(scenario=Path(path).stem, family=name, axis=family.axis, x=x, axis2=family.axis2,
                y=y, solver=solver)
     return row
 
 
+def settings_grid(params: dict | None) -> list:
+    """Every combination of the parameter values ``{name: [values]}`` (one empty setting
+    when there are none)."""
+    return [run["params"] for run in expand_grid(params or {}, [None], [0])]
+
+
 def _describe(row) -> str:
-    return f"{row['scenario']} {row['variant']} {row['solver']}: " \
+    setting = "" if row.get("params", "{}") == "{}" else f" {row['params']}"
+    return f"{row['scenario']} {row['variant']} {row['solver']}{setting}: " \
            f"{row.get('outcomes', row['status'])}"
+
+
+def _run_key(row) -> tuple:
+    return (row["scenario"], row["variant"], row["solver"], row["params"], row["seed"])
 
 
 def run_claims(cells, variants, solvers, seeds, settings: ClaimSettings, out_dir, *,
                workers=None, resume=False, overwrite=False, progress=True,
-               examples=True) -> dict:
+               examples=True, params: dict | None = None) -> dict:
     """Run the map into ``out_dir``; its summary (verdict counts, files).
 
     Parameters
@@ -96,58 +114,79 @@ def run_claims(cells, variants, solvers, seeds, settings: ClaimSettings, out_dir
         As for :func:`~dsmpepc_nlp.bench.runner.run_all` and
         :class:`~dsmpepc_nlp.bench.results.ResultTable`.
     examples : bool
-        Re-run one differing run with its trajectories and draw it (paper style).
+        Re-run one differing run with its trajectories and draw it (paper style; the first
+        parameter setting).
+    params : dict, optional
+        ``{field: [values]}`` as :func:`~dsmpepc_nlp.bench.params.parse_params` returns them:
+        every combination is a setting, each run for every cell, variant, solver and seed.
     """
+    grid = settings_grid(params)
+    for setting in grid:  # a bad value fails here, not in every run
+        for variant in variants:
+            configure(setting, variant)
     out = Path(out_dir)
     paths = {cell: str(families.save(*cell, out / "scenarios")) for cell in cells}
-    meta = dict(settings.meta(), variants=list(variants), solvers=list(solvers))
-    table = ResultTable(out, "claims", ("scenario", "variant", "solver", "seed"), meta,
-                        resume=resume, overwrite=overwrite)
-    tasks = [(cell, v, s, int(k), paths[cell], settings)
-             for cell in cells for s in solvers for v in variants for k in seeds]
-    run_all(run_cell, tasks, table, label="claims",
-            key=lambda t: (Path(t[4]).stem, t[1], t[2], t[3]), workers=workers,
+    meta = dict(settings.meta(), variants=list(variants), solvers=list(solvers),
+                params={k: list(v) for k, v in (params or {}).items()})
+    table = ResultTable(out, "claims", ("scenario", "variant", "solver", "params", "seed"),
+                        meta, resume=resume, overwrite=overwrite)
+    tasks = [(cell, v, s, int(k), paths[cell], settings, p)
+             for cell in cells for s in solvers for p in grid for v in variants for k in seeds]
+
+    def task_key(t):
+        return (Path(t[4]).stem, t[1], t[2], _key_text(t[6]), t[3])
+
+    run_all(run_cell, tasks, table, label="claims", key=task_key, workers=workers,
             progress=progress, describe=_describe)
-    wanted = {(Path(t[4]).stem, t[1], t[2], t[3]) for t in tasks}
-    rows = [r for r in table.rows if (r["scenario"], r["variant"], r["solver"], r["seed"])
-            in wanted]
+    wanted = {task_key(t) for t in tasks}
+    rows = [r for r in table.rows if _run_key(r) in wanted]
     summary_rows = cell_summary(rows)
     atomic_write_text(out / "claims_cells.json", dumps({"cells": summary_rows}))
     atomic_write_text(out / "claims_cells.csv", rows_to_csv(summary_rows))
     claim_map_figure = figures("claims").claim_map_figure
-    drawn = [str(claim_map_figure([r for r in summary_rows if r["solver"] == s],
+    first = _key_text(grid[0])
+    drawn = [str(claim_map_figure([r for r in summary_rows
+                                   if r["solver"] == s and r["params"] == first],
                                     out / f"claims_{s}.png", title=f"claim map ({s})"))
                for s in solvers]
+    if len(grid) > 1:
+        setting_figure = figures("claims").setting_figure
+        drawn += [str(setting_figure([r for r in summary_rows if r["solver"] == s],
+                                     out / f"claims_{s}_settings.png",
+                                     title=f"parameter settings ({s})")) for s in solvers]
     summary = {"runs": len(rows), "failed": sum(r["status"] != "ok" for r in rows),
                "verdicts": verdict_counts(summary_rows), "claim_cells": list(dict.fromkeys(
-                   f"{r['scenario']} ({r['solver']})" for r in summary_rows
+                   f"{r['scenario']} ({r['solver']}{_setting(r['params'])})" for r in summary_rows
                    if r.get("verdict") == "claim")),
                "table": str(table.csv_path), "cells_table": str(out / "claims_cells.csv"),
                "figures": drawn}
     if examples:
-        example = pick_example(rows)
+        example = pick_example([r for r in rows if r["params"] == first])
         if example is not None:
-            summary["example"] = str(draw_example(example, paths, variants, settings, out))
+            summary["example"] = str(draw_example(example, paths, variants, settings, out,
+                                                  grid[0]))
     return summary
 
 
 def cell_summary(rows) -> list:
     """One row per (cell, solver, variant): seeds, failed runs and the mean rates over the
-    seeds; the ``mpepc`` and ``ds-mpepc`` rows of a cell carry the cell's ``verdict``."""
+    seeds (per parameter setting, ``params``); the ``mpepc`` and ``ds-mpepc`` rows of a cell
+    and setting carry its ``verdict``."""
     groups: dict = {}
     for r in rows:
-        groups.setdefault((r["family"], r["x"], r["y"], r["solver"], r["variant"]), []).append(r)
+        key = (r["family"], r["x"], r["y"], r["solver"], r.get("params", "{}"), r["variant"])
+        groups.setdefault(key, []).append(r)
     out = []
-    for (name, x, y, solver, variant), group in sorted(groups.items(), key=lambda kv: (
-            kv[0][0], kv[0][3], kv[0][2], kv[0][1], kv[0][4])):
+    for (name, x, y, solver, params, variant), group in sorted(groups.items(), key=lambda kv: (
+            kv[0][0], kv[0][3], kv[0][4], kv[0][2], kv[0][1], kv[0][5])):
         ok = [r for r in group if r["status"] == "ok"]
         out.append({"family": name, "axis": group[0]["axis"], "x": x, "axis2": group[0]["axis2"],
                     "y": y, "scenario": group[0]["scenario"], "solver": solver,
-                    "variant": variant, "seeds": len(group), "failed": len(group) - len(ok),
-                    **{k: mean(ok, k) for k in RATES}})
+                    "params": params, "variant": variant, "seeds": len(group),
+                    "failed": len(group) - len(ok), **{k: mean(ok, k) for k in RATES}})
     by_cell: dict = {}
     for r in out:
-        by_cell.setdefault((r["scenario"], r["solver"]), {})[r["variant"]] = r
+        by_cell.setdefault((r["scenario"], r["solver"], r["params"]), {})[r["variant"]] = r
     for variants in by_cell.values():
         verdict_ = verdict(variants.get("ds-mpepc"), variants.get("mpepc"))
         for r in variants.values():
@@ -171,11 +210,11 @@ def verdict(ds: dict | None, mp: dict | None) -> str | None:
 
 
 def verdict_counts(summary_rows) -> dict:
-    """``{solver: {family: {verdict: number of cells}}}``."""
+    """``{solver: {family: {verdict: number of cells}}}`` (cells times parameter settings)."""
     counts: dict = {}
     seen = set()
     for r in summary_rows:
-        key = (r["scenario"], r["solver"])
+        key = (r["scenario"], r["solver"], r.get("params", "{}"))
         if r.get("verdict") is None or key in seen:
             continue
         seen.add(key)
@@ -203,8 +242,14 @@ def pick_example(rows):
     return min(differing, key=rank)[0] if differing else None
 
 
-def draw_example(example, paths, variants, settings: ClaimSettings, out: Path) -> Path:
-    """Re-simulate one run for every variant with its trajectories; the side-by-side figure."""
+def _setting(params: str) -> str:
+    return "" if params == "{}" else f", {params}"
+
+
+def draw_example(example, paths, variants, settings: ClaimSettings, out: Path,
+                 params: dict | None = None) -> Path:
+    """Re-simulate one run for every variant (with the fields ``params`` replaced) with its
+    trajectories; the side-by-side figure."""
     scenario_name, solver_name, seed = example
     path = next(p for p in paths.values() if Path(p).stem == scenario_name)
     scenario = load_scenario(path)
@@ -214,7 +259,7 @@ def draw_example(example, paths, variants, settings: ClaimSettings, out: Path) -
     solver = SolverConfig.named(solver_name)
     if settings.n_samples:
         solver = dataclasses.replace(solver, n_samples=settings.n_samples)
-    episodes = {v: simulate(scenario, PlannerConfig.variant(v), solver,
+    episodes = {v: simulate(scenario, configure(params or {}, v), solver,
                             np.random.default_rng(seed)) for v in variants}
     return figures().compare_figure(episodes, path=out / f"example-{scenario_name}-{solver_name}"
                                 f"-seed{seed}.png")

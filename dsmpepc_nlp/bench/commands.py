@@ -302,6 +302,13 @@ def add_claims(p) -> None:
                         "the families' grid")
     p.add_argument("--axis2", type=_values("axis2"), default=None, metavar="V1,V2,...",
                    help="values of the second geometry axis (width, length, offset; m)")
+    p.add_argument("--cells", default=None, metavar="FAMILY:X:Y,...",
+                   help="run exactly these cells (e.g. t-corridor:1.0:1.8,narrow-corridor:"
+                        "1.4:12.6), instead of --families/--axis/--axis2")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=V1,V2,...",
+                   help="replace a PlannerConfig field, as sweep --param (s_ttc=0.25,0.5, "
+                        "robot.v_limit=1.5, ttg_along_nf=1); several values or several --set: "
+                        "every combination is a setting run for every cell")
     p.add_argument("--duration", type=options.number(0.0, low_open=True), default=None,
                    help="cap on every episode's length, s (default: the family's)")
     p.add_argument("--samples", type=options.positive, default=None,
@@ -326,14 +333,19 @@ def run_claims(args) -> dict:
         raise InputError("--families: give at least one family")
     for solver in set(args.solvers):
         solver_config(solver)
-    cells = [(name, float(x), float(y)) for name in names
-             for y in (args.axis2 or _grid(name, args.quick)[1])
-             for x in (args.axis or _grid(name, args.quick)[0])]
+    if args.cells is not None:
+        cells = claims.families.parse_cells(args.cells, "--cells")
+    else:
+        cells = [(name, float(x), float(y)) for name in names
+                 for y in (args.axis2 or _grid(name, args.quick)[1])
+                 for x in (args.axis or _grid(name, args.quick)[0])]
     settings = claims.ClaimSettings(n_samples=args.samples, duration=args.duration)
     return claims.run_claims(cells, args.variants, args.solvers,
                              parse_indices(args.seeds, "--seeds"), settings, args.out,
                              workers=args.workers, resume=args.resume,
-                             overwrite=args.overwrite, examples=not args.no_examples)
+                             overwrite=args.overwrite, examples=not args.no_examples,
+                             params=parse_params(args.set))
+
 
 
 def _grid(name: str, quick: bool) -> tuple:

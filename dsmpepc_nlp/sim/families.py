@@ -239,3 +239,19 @@ def cells(names, *, quick: bool = False) -> list:
         xs, ys = (f.quick, f.quick2) if quick else (f.values, f.values2)
         out.extend((name, float(x), float(y)) for y in ys for x in xs)
     return out
+
+
+def parse_cells(text: str, option: str = "cells") -> list:
+    """``FAMILY:X:Y`` items, comma-separated (``t-corridor:1.0:1.8,doorway:0.9:1.5``), as
+    ``(family, x, y)``, each checked by :func:`generate`; InputError naming ``option``."""
+    out = []
+    for item in (part.strip() for part in str(text).split(",")):
+        name, *values = item.split(":")
+        try:
+            x, y = (float(v) for v in values)
+        except ValueError:
+            raise InputError(f"{option} {item!r}: expected FAMILY:X:Y with two numbers "
+                             "(e.g. t-corridor:1.0:1.8)") from None
+        generate(name, x, y)
+        out.append((name, x, y))
+    return list(dict.fromkeys(out))

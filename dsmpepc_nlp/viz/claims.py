@@ -2,7 +2,9 @@
 
 A view over the per-cell summary rows of :mod:`dsmpepc_nlp.bench.claims` (one solver): one
 column per family, one row per outcome (success, deadlock, collision); a line per variant, its
-line style telling the values of the family's second axis apart. Written atomically and closed.
+line style telling the values of the family's second axis apart. With several parameter
+settings (``claims --set``), :func:`setting_figure` draws one line per variant and setting.
+Written atomically and closed.
 """
 
 from __future__ import annotations
@@ -50,5 +52,43 @@ def claim_map_figure(rows, path, title: str = "claim map"):
     fig.tight_layout()
     try:
         return atomic_savefig(fig, path, dpi=110)
+    finally:
+        plt.close(fig)
+
+
+def setting_figure(rows, path, title: str = "parameter settings"):
+    """Success and deadlock rate against the first geometry axis, one line per variant and
+    parameter setting (``params``), one column per family; cells of every second-axis value
+    are drawn as separate points of their line's colour."""
+    names = list(dict.fromkeys(r["family"] for r in rows)) or ["(no runs)"]
+    lines = list(dict.fromkeys((r["variant"], r.get("params", "{}")) for r in rows))
+    colours = plt.get_cmap("tab10")
+    fig, axes = plt.subplots(2, len(names), figsize=(4.2 * len(names), 5.6), squeeze=False,
+                             sharey=True)
+    for j, name in enumerate(names):
+        mine = [r for r in rows if r["family"] == name]
+        for i, rate in enumerate(("success_rate", "deadlock_rate")):
+            ax = axes[i, j]
+            for n, (variant, params) in enumerate(lines):
+                for k, y in enumerate(sorted({r["y"] for r in mine})):
+                    line = sorted((r["x"], r[rate]) for r in mine if r["variant"] == variant
+                                  and r.get("params", "{}") == params and r["y"] == y)
+                    ax.plot([p[0] for p in line], [p[1] for p in line], marker="o", ms=4,
+                            lw=1.5, alpha=0.85, color=colours(n % 10),
+                            ls=STYLES[k % len(STYLES)],
+                            label=f"{variant} {params}" if k == 0 else None)
+            ax.set_ylim(-0.05, 1.05)
+            if j == 0:
+                ax.set_ylabel(rate.replace("_", " "))
+            if i == 0:
+                ax.set_title(name)
+            elif mine:
+                ax.set_xlabel(f"{mine[0]['axis']} (m)")
+        if mine:
+            axes[0, j].legend(fontsize=5)
+    fig.suptitle(title)
+    fig.tight_layout()
+    try:
+        return atomic_savefig(fig, path, dpi=100)
     finally:
         plt.close(fig)
