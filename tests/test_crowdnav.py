@@ -1,5 +1,6 @@
 """CrowdNav protocol: the scenes' geometry, the ORCA humans, the two settings, the command."""
 
+import dataclasses
 import json
 import math
 
@@ -42,6 +43,62 @@ def test_square_crossing_geometry(seed):
     assert spacing_ok(starts) and spacing_ok(goals)
     assert np.all(np.linalg.norm(starts - cn.ROBOT_START, axis=1) >= 0.8)
     assert np.all(np.linalg.norm(goals - cn.ROBOT_GOAL, axis=1) >= 0.8)
+
+
+def crowdnav_circle_case(case, n=5, robot=((0.0, -4.0), (0.0, 4.0))):
+    """CrowdNav's test case ``case`` written out as its ``generate_circle_crossing_human``
+    draws it: the global legacy generator seeded 1000 + case, angle then x and y noise, each
+    start redrawn while within 0.8 m of the robot's or a placed human's start or goal."""
+    np.random.seed(1000 + case)
+    placed, starts = [robot], []
+    for _ in range(n):
+        while True:
+            angle = np.random.random() * np.pi * 2
+            px = 4 * np.cos(angle) + (np.random.random() - 0.5)
+            py = 4 * np.sin(angle) + (np.random.random() - 0.5)
+            if all(np.hypot(px - s[0], py - s[1]) >= 0.8 and np.hypot(px - g[0], py - g[1]) >= 0.8
+                   for s, g in placed):
+                break
+        placed.append(((px, py), (-px, -py)))
+        starts.append((px, py))
+    return np.array(starts)
+
+
+@pytest.mark.parametrize("case", [0, 1, 17, 499])
+def test_episodes_are_crowdnavs_test_cases(case):
+    starts, goals = cn.circle_crossing(cn.case_rng(0, case))
+    assert np.array_equal(starts, crowdnav_circle_case(case))
+    assert np.array_equal(goals, -starts)
+
+
+def test_no_deadlock_rule_a_stalled_robot_times_out():
+    # a robot too slow to make 0.1 m of progress in 10 s: the loop's rule calls it a deadlock
+    # at 10 s; the CrowdNav protocol (deadlock=False) lets it run to the end: a timeout
+    from dsmpepc_nlp.core.config import PlannerConfig, RobotConfig, SolverConfig
+    from dsmpepc_nlp.sim.simulate import simulate
+    from dsmpepc_nlp.sim.types import Agent, FixedGoal, Scenario
+    scenario = Scenario("slow", (Agent("r", RobotState(0.0, 0.0, 0.0), FixedGoal((5.0, 0.0)),
+                                       robot=RobotConfig(v_limit=0.005)),), duration=11.0)
+    solver = SolverConfig.sampling(n_samples=16)
+    stalled = simulate(scenario, PlannerConfig(), solver, record_trajectories=False)
+    assert stalled.outcomes == ["deadlock"]
+    on = simulate(scenario, PlannerConfig(), solver, record_trajectories=False, deadlock=False)
+    assert on.outcomes == ["timeout"] and on.outcome_times[0] == pytest.approx(11.0)
+
+
+def test_a_contact_within_a_step_ends_the_episode_as_a_collision():
+    settings = cn.CrowdNavSettings(n_samples=16, duration=6.0)
+    log, _ = cn.simulate_episode(settings, "ds-mpepc", 0, 0, record_trajectories=False)
+    assert cn.with_swept_contact(log) is log or log.outcomes == ["collision"]
+    # a human put across the robot's path between two states: a collision at that state
+    k = 4
+    t = log.times
+    ped = log.ped_positions.copy()
+    robot = log.states[0, :, :2]
+    ped[:, 0] = robot[k] + (robot[k + 1] - robot[k]) / 2 + np.outer(t - t[k] - 0.125,
+                                                                    [40.0, 0.0])
+    hit = cn.with_swept_contact(dataclasses.replace(log, ped_positions=ped))
+    assert hit.outcomes == ["collision"] and hit.outcome_times[0] == pytest.approx(t[k + 1])
 
 
 def test_draws_are_seeded_and_differ_between_seeds():

@@ -24,6 +24,7 @@ from dsmpepc_nlp.sim.metrics import (
     shortest_path_length,
     smoothness,
     spl,
+    swept_contact_time,
     time_to_goal,
 )
 from dsmpepc_nlp.sim.simulate import simulate
@@ -155,6 +156,36 @@ def test_robot_moving_away_but_caught_up_is_struck_and_no_collision_has_no_kind(
     assert collision_kind(ep, 0) == "struck"
     assert collision_kind(straight_episode(), 0) is None
     assert math.isnan(contact_approach_speed(straight_episode(), 0))
+
+
+def crossing_episode(ped_x):
+    """The robot drives along y = 0 at 1 m/s; a human at x = ``ped_x`` crosses its line at
+    7 m/s, 0.707 m from the robot's centre at t = 1.0 and 1.2 (clear at every state) but
+    passing through it in between (a contact only a check over the step sees)."""
+    ep = straight_episode()
+    ep.ped_positions = np.zeros((ep.times.size, 1, 2))
+    ep.ped_positions[:, 0, 0] = ped_x
+    ep.ped_positions[:, 0, 1] = 0.7 - 7.0 * (ep.times - 1.0)
+    return ep
+
+
+def test_a_contact_between_two_states_is_found_and_judged_where_it_happened():
+    ahead = crossing_episode(1.1)
+    assert min_dynamic_clearance(ahead, 0) > 0.1  # every logged state is clear
+    assert swept_contact_time(ahead, 0) == pytest.approx(1.2)
+    assert math.isnan(swept_contact_time(straight_episode(), 0))
+    # outcome decided at the contact: the human passed just ahead of the robot, which moved
+    # toward where it touched: at fault; just behind the robot: struck
+    speeds = {}
+    for ped_x, kind in ((1.1, "at-fault"), (0.9, "struck")):
+        ep = crossing_episode(ped_x)
+        ep.outcomes, ep.outcome_times = ["collision"], [1.2]
+        speeds[ped_x] = contact_approach_speed(ep, 0)
+        assert collision_kind(ep, 0) == kind
+    # x = 1.1: the relative motion runs straight through the centre, from offset (0.1, 0.7):
+    # the first touch is along that offset, and the robot's 1 m/s along x projects onto it
+    assert speeds[1.1] == pytest.approx(0.1 / math.hypot(0.1, 0.7), abs=1e-9)
+    assert speeds[0.9] < -0.1
 
 
 def test_driving_into_a_wall_is_at_fault():

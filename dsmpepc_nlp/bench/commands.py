@@ -213,8 +213,9 @@ def add_crowdnav(p) -> None:
     p.add_argument("--variants", nargs="+", default=["mpepc", "ds-mpepc"],
                    help=f"{', '.join(PLANNER_VARIANTS)}, orca")
     p.add_argument("--duration", type=options.number(0.0, low_open=True),
-                   default=crowdnav.TIME_LIMIT,
-                   help=f"episode length, s (default {crowdnav.TIME_LIMIT:g})")
+                   default=crowdnav.DURATION,
+                   help=f"episode length, s (default {crowdnav.DURATION:g}: CrowdNav's 25 s "
+                        "limit times out at 24 s)")
     # the sampler until the NLP is fast enough for 500 episodes; the summary states the solver
     _table_options(p, "results/crowdnav", solver_default="sampling")
 

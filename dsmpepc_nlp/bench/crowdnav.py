@@ -6,8 +6,8 @@ Square crossing: humans start on one side of a ``SQUARE_WIDTH`` square (left or 
 coin) and walk to a uniform point of the other half. In both, a human is redrawn while its start
 (and goal) is closer than ``radius + other radius + DISCOMFORT_DIST`` to a start (goal) of the
 robot or of a human already placed, as CrowdNav does. The robot starts at ``(0, -4)`` facing
-``+y`` and must reach ``(0, 4)`` within ``GOAL_TOLERANCE`` (CrowdNav's robot radius) before
-``TIME_LIMIT``.
+``+y`` and must reach ``(0, 4)`` within ``GOAL_TOLERANCE`` (CrowdNav's robot radius) by
+``DURATION``.
 
 Humans (radius 0.3 m, preferred speed 1 m/s) are driven by ORCA (``pyrvo``) with CrowdNav's
 parameters: every ``TIME_STEP`` each human takes ORCA's velocity for its preferred velocity (the
@@ -18,16 +18,29 @@ simulator per human gives. Setting ``invisible`` (the standard): the humans igno
 Setting ``visible``: the robot is one more ORCA agent for them, at its current position and
 velocity (its own ORCA answer is discarded).
 
+Episodes are CrowdNav's test cases: with ``--seed 0`` episode ``k`` draws the humans from
+numpy's legacy generator seeded ``1000 + k`` in CrowdNav's order of draws, as CrowdNav's test
+phase does (:func:`case_rng`), so episodes 0-499 are the 500 test cases of the literature.
+
 Control period: CrowdNav's time step is 0.25 s; our planner's horizon step is 0.2 s (METHOD.md).
 We keep the method as it is (0.2 s horizon, its acceleration limits per 0.2 s step) and run the
 loop at 0.25 s: every 0.25 s the robot plans once and holds the first control of its plan for the
 whole 0.25 s (a zero-order hold, as a 4 Hz controller would). The speed change between two
 controls stays within what the limits allow over 0.2 s, hence over 0.25 s too.
 
-Differences from CrowdNav, stated rather than hidden: contact is checked at the 0.25 s states
-(CrowdNav checks the closest approach within the step); our loop also ends an episode as
-``deadlock`` after 10 s without progress (METHOD.md section 7), which CrowdNav would count as
-a timeout (or a late success); the robot is our unicycle with its limits, not a holonomic disk.
+Outcomes as CrowdNav decides them: a collision is any overlap with a human within a step
+(closest approach of the straight-line relative motion between two states, CrowdNav's check;
+:func:`~dsmpepc_nlp.sim.metrics.swept_contact_time`), checked before success; success is the
+robot within its radius of the goal; CrowdNav's ``time_limit = 25`` ends an episode as a timeout
+once ``global_time >= time_limit - 1``, so the last state that can succeed is at 24 s
+(``DURATION``); there is no deadlock rule (a robot that stalls runs on to the time limit).
+Humans that reach their goal stay there as ORCA agents (preferred velocity toward the goal),
+still stepping aside for the other humans, never for an invisible robot.
+
+Differences from CrowdNav, stated rather than hidden: the robot is our unicycle with its
+limits (radius 0.3 m, as CrowdNav's robot), not CrowdNav's holonomic or unicycle action set;
+CrowdNav's collision check uses each human's velocity of the previous step, ours the human's
+actual motion over the step.
 """
 
 from __future__ import annotations
@@ -41,7 +54,7 @@ import numpy as np
 
 from ..core.config import PlannerConfig, RobotConfig, RobotState, SolverConfig
 from ..core.errors import InputError
-from ..sim.metrics import DISCOMFORT_GAP
+from ..sim.metrics import DISCOMFORT_GAP, swept_contact_time
 from ..sim.simulate import simulate
 from ..sim.types import Agent, FixedGoal, Scenario
 from ..solve.planner import Planner
@@ -67,7 +80,11 @@ DISCOMFORT_DIST = DISCOMFORT_GAP
 TIME_STEP = 0.25
 """Control period of the robot and step of the humans, s."""
 TIME_LIMIT = 25.0
-"""Episode length, s."""
+"""CrowdNav's ``time_limit``, s."""
+DURATION = TIME_LIMIT - 1.0
+"""Episode length, s: CrowdNav declares a timeout once ``global_time >= time_limit - 1``."""
+CASE_OFFSET = 1000
+"""CrowdNav seeds test case ``k`` with ``1000 + k`` (its validation cases take 0-999)."""
 GOAL_TOLERANCE = 0.3
 """Success radius, m (CrowdNav: within the robot radius of the goal)."""
 ROBOT_START = (0.0, -CIRCLE_RADIUS)
@@ -81,6 +98,13 @@ ORCA_TIME_HORIZON_OBST = 5.0
 ORCA_RADIUS_PAD = 0.01
 PLACEMENT_DRAWS = 1000
 """Draws of one human's start (goal) before the placement is declared impossible."""
+
+
+def case_rng(seed: int, episode: int) -> np.random.RandomState:
+    """The generator of the humans of episode ``episode``: numpy's legacy generator seeded
+    ``CASE_OFFSET * (1 + seed) + episode`` (seed 0: CrowdNav's test case ``episode``; seed
+    ``s``: the cases ``1000 s`` further on)."""
+    return np.random.RandomState(CASE_OFFSET * (1 + int(seed)) + int(episode))
 
 
 def _clear(point, others, radius) -> bool:
@@ -250,7 +274,7 @@ class CrowdNavSettings:
     humans: int = N_HUMANS
     solver: str = "sampling"
     n_samples: int | None = None
-    duration: float = TIME_LIMIT
+    duration: float = DURATION
 
     def __post_init__(self):
         if self.scene not in SCENES:
@@ -268,7 +292,7 @@ def episode_scenario(settings: CrowdNavSettings, episode: int, seed: int, robot=
     """Episode ``episode`` of the seeded set (the same for every variant): the scenario, its
     crowd and the humans' starts and goals."""
     robot = robot or RobotConfig()
-    rng = np.random.default_rng([seed, episode])
+    rng = case_rng(seed, episode)
     draw = circle_crossing if settings.scene == "circle" else square_crossing
     starts, goals = draw(rng, settings.humans, robot.bounding_radius)
     crowd = OrcaCrowd(starts, goals, visible=settings.setting == "visible",
@@ -308,8 +332,17 @@ def simulate_episode(settings: CrowdNavSettings, variant: str, episode: int, see
     loop_config = dataclasses.replace(
         config, horizon=dataclasses.replace(config.horizon, dt=TIME_STEP))
     log = simulate(scenario, loop_config, solver, np.random.default_rng([seed, episode]),
-                   planner_factory=factory, **kwargs)
-    return log, crowd
+                   planner_factory=factory, deadlock=False, **kwargs)
+    return with_swept_contact(log), crowd
+
+
+def with_swept_contact(log):
+    """``log`` with the robot's outcome turned into a collision when it touched a human
+    between two states before (or at) its outcome (CrowdNav checks contact over the step)."""
+    t = swept_contact_time(log, 0)
+    if math.isnan(t) or (log.outcomes[0] == "collision" and log.outcome_times[0] <= t):
+        return log
+    return dataclasses.replace(log, outcomes=["collision"], outcome_times=[t])
 
 
 def run_episode(settings: CrowdNavSettings, variant: str, episode: int, seed: int) -> dict:

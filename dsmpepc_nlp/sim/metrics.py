@@ -147,13 +147,35 @@ def _toward_map(grid, point) -> tuple:
     return float(d[0]), (-gradient / norm if norm > 1e-12 else np.zeros(2))
 
 
+def _contact_normals(before, here, centres_before, centres_here, radii):
+    """Over one step of straight-line relative motion between every robot circle (``before``
+    -> ``here``, (C, 2)) and every body (M, 2 -> M, 2; radii (M,) + the circles' (C,)):
+    the smallest gap (C, M) and the unit direction (C, M, 2) from circle to body at the
+    first touch (at the closest approach where they do not touch)."""
+    a = centres_before[None, :, :] - before[:, None, :2]                  # (C, M, 2)
+    d = (centres_here[None, :, :] - here[:, None, :2]) - a
+    reach = before[:, 2][:, None] + radii[None, :]
+    dd = np.maximum(np.sum(d * d, axis=-1), 1e-18)
+    ad = np.sum(a * d, axis=-1)
+    s_close = np.clip(-ad / dd, 0.0, 1.0)
+    disc = ad**2 - dd * (np.sum(a * a, axis=-1) - reach**2)
+    s_touch = np.clip((-ad - np.sqrt(np.maximum(disc, 0.0))) / dd, 0.0, 1.0)
+    s = np.where(disc >= 0, np.minimum(s_touch, s_close), s_close)
+    offset = a + s[..., None] * d
+    gaps = np.linalg.norm(a + s_close[..., None] * d, axis=-1) - reach
+    return gaps, offset / np.maximum(np.linalg.norm(offset, axis=-1, keepdims=True), 1e-12)
+
+
 def contact_approach_speed(episode, robot: int) -> float:
     """Speed (m/s) of the robot toward the body it touched at its outcome; NaN if no collision.
 
-    The touched body is the one with the smallest gap at the outcome state (a pedestrian,
-    another robot, a parked robot or the map). The robot's velocity is that of its nearest
-    footprint circle over the last step (the logged state at the outcome already has v = 0, the
-    robot having stopped there), so turning counts too.
+    The touched body is the one the robot came closest to over the last step (a pedestrian,
+    another robot, a parked robot), or the map if the robot overlaps it more at the outcome
+    state. The direction toward a moving body is taken at the moment of first touch within
+    the step (both moving in straight lines between their logged states), so a contact made
+    and passed between two states is judged where it happened. The robot's velocity is that of
+    its nearest footprint circle over the last step (the logged state at the outcome already
+    has v = 0, the robot having stopped there), so turning counts too.
     """
     if episode.outcomes[robot] != "collision":
         return math.nan
@@ -165,16 +187,16 @@ def contact_approach_speed(episode, robot: int) -> float:
         velocity = (here - before) / (episode.times[k] - episode.times[k - 1])
     else:
         x, y, phi, v = episode.states[robot, 0, :4]
+        before = here
         velocity = np.tile([v * math.cos(phi), v * math.sin(phi)], (len(here), 1))
     best_gap, best_dir, best_c = math.inf, np.zeros(2), 0
     centres, radii = _bodies_at(episode, robot, k)
     if radii.size:
-        offset = centres[None, :, :] - here[:, None, :]                       # (C, M, 2)
-        distance = np.linalg.norm(offset, axis=-1)
-        gaps = distance - fp[:, 2][:, None] - radii[None, :]
+        centres_before = _bodies_at(episode, robot, max(k - 1, 0))[0]
+        gaps, directions = _contact_normals(np.column_stack([before, fp[:, 2]]), here,
+                                            centres_before, centres, radii)
         c, m = np.unravel_index(int(np.argmin(gaps)), gaps.shape)
-        best_gap, best_c = float(gaps[c, m]), int(c)
-        best_dir = offset[c, m] / max(float(distance[c, m]), 1e-12)
+        best_gap, best_c, best_dir = float(gaps[c, m]), int(c), directions[c, m]
     grid = episode.grid
     if grid is not None:
         for c, point in enumerate(here):
@@ -182,6 +204,29 @@ def contact_approach_speed(episode, robot: int) -> float:
             if d - fp[c, 2] < best_gap:
                 best_gap, best_dir, best_c = d - fp[c, 2], direction, c
     return float(np.dot(velocity[best_c], best_dir))
+
+
+def swept_contact_time(episode, robot: int) -> float:
+    """Time of the state ending the first step in which the robot touched a pedestrian, s;
+    NaN if it never did within its run.
+
+    Within a step both bodies are taken to move in straight lines between their logged
+    states, and contact is the closest approach of that relative motion (CrowdNav's check),
+    so a contact that begins and ends between two states counts too.
+    """
+    stop = run_length(episode, robot)
+    if stop < 2 or not episode.ped_radii.size:
+        return math.nan
+    points, radii = _points(episode, robot, stop)                        # (T, C, 2), (C,)
+    ped = episode.ped_positions[:stop]                                    # (T, P, 2)
+    rel = points[:, :, None, :] - ped[:, None, :, :]                      # (T, C, P, 2)
+    start, move = rel[:-1], np.diff(rel, axis=0)
+    denom = np.maximum(np.sum(move * move, axis=-1), 1e-18)
+    s = np.clip(-np.sum(start * move, axis=-1) / denom, 0.0, 1.0)
+    closest = np.linalg.norm(start + s[..., None] * move, axis=-1)         # (T-1, C, P)
+    gaps = closest - radii[None, :, None] - episode.ped_radii[None, None, :]
+    touched = np.flatnonzero(np.any(gaps < 0, axis=(1, 2)))
+    return float(episode.times[touched[0] + 1]) if touched.size else math.nan
 
 
 def collision_kind(episode, robot: int) -> str | None:

@@ -87,8 +87,8 @@ class _Loop:
     """The state of one episode while it runs: robots, pedestrians, outcomes and history."""
 
     def __init__(self, scenario: Scenario, config: PlannerConfig, solver: SolverConfig, rng,
-                 planner_factory):
-        self.scenario, self.dt = scenario, config.horizon.dt
+                 planner_factory, deadlock=True):
+        self.scenario, self.dt, self.deadlock = scenario, config.horizon.dt, bool(deadlock)
         self.agents = agents = scenario.agents
         self.n = len(agents)
         if self.n == 0:
@@ -171,7 +171,7 @@ class _Loop:
             result = outcome(t, self.scenario.duration, kind=goal.kind,
                              collided=self.collided(i, points, radii, ped_pos), near=bool(near),
                              progress=window_progress(self.progress_ref[i], self.window,
-                                                      goal.kind))
+                                                      goal.kind) if self.deadlock else None)
             if result is not None:
                 new[i] = result
         for i, result in new.items():
@@ -239,7 +239,7 @@ def _best_samples(evaluated, max_samples) -> tuple:
 
 def simulate(scenario: Scenario, config: PlannerConfig, solver: SolverConfig, rng=None, *,
              record_trajectories: bool = True, record_samples=(), max_samples: int = 512,
-             progress=None, planner_factory=Planner) -> Episode:
+             progress=None, planner_factory=Planner, deadlock: bool = True) -> Episode:
     """Run ``scenario`` in closed loop with every agent planning by ``config`` and ``solver``.
 
     Parameters
@@ -263,6 +263,9 @@ def simulate(scenario: Scenario, config: PlannerConfig, solver: SolverConfig, rn
     planner_factory : callable, optional
         ``planner_factory(config, solver)`` builds each robot's planner (default
         :class:`~dsmpepc_nlp.solve.planner.Planner`; the ORCA baseline passes its own).
+    deadlock : bool
+        Apply the deadlock rule (METHOD.md section 7); False: a stalled robot runs on until the
+        duration ends (a protocol without that rule, such as CrowdNav's, calls it a timeout).
 
     Returns
     -------
@@ -273,7 +276,7 @@ def simulate(scenario: Scenario, config: PlannerConfig, solver: SolverConfig, rn
         raise TypeError(f"rng = {rng!r}: must be a numpy.random.Generator")
     n_cycles = max(1, int(math.ceil(scenario.duration / config.horizon.dt - 1e-9)))
     record_samples = set(int(k) for k in record_samples)
-    loop = _Loop(scenario, config, solver, rng, planner_factory)
+    loop = _Loop(scenario, config, solver, rng, planner_factory, deadlock)
     log = _Log(loop.n, config.horizon.n_steps)
     samples = {}
     loop.decide(0.0, loop.hist_ped[0][0])
