@@ -183,7 +183,7 @@ def add_crowd(p) -> None:
     p.add_argument("--episodes", type=options.positive, default=20)
     p.add_argument("--seed", type=options.seed, default=0)
     p.add_argument("--variants", nargs="+", default=["mpepc", "ds-mpepc"],
-                   help=f"{', '.join(PLANNER_VARIANTS)}, orca")
+                   help=f"{', '.join(PLANNER_VARIANTS)}, orca, cv (constant-velocity baseline)")
     p.add_argument("--duration", type=options.number(0.0, low_open=True), default=None,
                    help=f"episode length, s (default {crowds.DEFAULT_DURATION})")
     _table_options(p, "results/crowd")
@@ -211,7 +211,7 @@ def add_crowdnav(p) -> None:
     p.add_argument("--humans", type=options.positive, default=crowdnav.N_HUMANS,
                    help=f"ORCA humans (default {crowdnav.N_HUMANS})")
     p.add_argument("--variants", nargs="+", default=["mpepc", "ds-mpepc"],
-                   help=f"{', '.join(PLANNER_VARIANTS)}, orca")
+                   help=f"{', '.join(PLANNER_VARIANTS)}, orca, cv (constant-velocity baseline)")
     p.add_argument("--duration", type=options.number(0.0, low_open=True),
                    default=crowdnav.DURATION,
                    help=f"episode length, s (default {crowdnav.DURATION:g}: CrowdNav's 25 s "

@@ -59,6 +59,7 @@ from ..sim.simulate import simulate
 from ..sim.types import Agent, FixedGoal, Scenario
 from ..solve.planner import Planner
 from .crowds import measured_row, run_variants
+from .cv import CROWD_BASELINES, ConstantVelocityPlanner
 from .orca import OrcaPlanner, check_variants, require_pyrvo
 from .results import ResultTable
 
@@ -96,6 +97,8 @@ ORCA_MAX_NEIGHBORS = 10
 ORCA_TIME_HORIZON = 5.0
 ORCA_TIME_HORIZON_OBST = 5.0
 ORCA_RADIUS_PAD = 0.01
+BASELINES = {"orca": OrcaPlanner, "cv": ConstantVelocityPlanner}
+"""The planner class of each baseline in :data:`~dsmpepc_nlp.bench.cv.CROWD_BASELINES`."""
 PLACEMENT_DRAWS = 1000
 """Draws of one human's start (goal) before the placement is declared impossible."""
 
@@ -309,15 +312,16 @@ def episode_scenario(settings: CrowdNavSettings, episode: int, seed: int, robot=
 
 def simulate_episode(settings: CrowdNavSettings, variant: str, episode: int, seed: int,
                      **kwargs) -> tuple:
-    """Run episode ``episode`` with ``variant`` (``orca`` included): ``(Episode, OrcaCrowd)``.
+    """Run episode ``episode`` with ``variant`` (``orca``, ``cv`` included):
+    ``(Episode, OrcaCrowd)``.
 
     The robot plans with the method's 0.2 s horizon and the loop runs at ``TIME_STEP`` (module
     docstring); every plan first reports the robot's state to the crowd. ``kwargs`` go to
     :func:`~dsmpepc_nlp.sim.simulate.simulate`.
     """
     scenario, crowd, _, _ = episode_scenario(settings, episode, seed)
-    if variant == "orca":
-        config, make = PlannerConfig(), OrcaPlanner
+    if variant in CROWD_BASELINES:
+        config, make = PlannerConfig(), BASELINES[variant]
         solver = SolverConfig.sampling(n_samples=1)
     else:
         config, make = PlannerConfig.variant(variant), Planner
@@ -346,7 +350,7 @@ def with_swept_contact(log):
 
 
 def run_episode(settings: CrowdNavSettings, variant: str, episode: int, seed: int) -> dict:
-    """One CrowdNav episode with one planner variant (``orca`` included); the result row."""
+    """One CrowdNav episode with one planner variant (``orca``, ``cv`` included); the row."""
     row = {"episode": int(episode), "seed": int(seed), "variant": variant,
            "scene": settings.scene, "setting": settings.setting}
     return measured_row(row, lambda: simulate_episode(settings, variant, episode, seed,
@@ -361,7 +365,7 @@ def run_benchmark(settings: CrowdNavSettings, variants, episodes: int, seed: int
     (:func:`~dsmpepc_nlp.bench.crowds.summarise`: success, at-fault and struck collisions,
     timeout, deadlock, time, SPL, distances, discomfort, jerk, plan time).
     """
-    check_variants(variants)
+    check_variants(variants, CROWD_BASELINES)
     require_pyrvo()  # the humans are ORCA agents whatever the robot
     table = ResultTable(out_dir, "crowdnav", ("variant", "episode", "seed"), settings.meta(),
                         resume=resume, overwrite=overwrite)

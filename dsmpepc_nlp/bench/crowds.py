@@ -30,6 +30,7 @@ from ..core.errors import InputError
 from ..sim.metrics import episode_metrics
 from ..sim.simulate import simulate
 from ..sim.types import Agent, FixedGoal, Pedestrian, Scenario
+from .cv import CROWD_BASELINES, ConstantVelocityPlanner
 from .orca import check_variants, simulate_orca
 from .results import ResultTable
 from .runner import mean, outcome_rates, run_all
@@ -264,7 +265,7 @@ def episode_scenario(settings: CrowdSettings, episode: int, seed: int):
 
 
 def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int) -> dict:
-    """One crossing with one planner variant (``orca`` included); the result row."""
+    """One crossing with one planner variant (``orca``, ``cv`` included); the result row."""
     row = {"episode": int(episode), "seed": int(seed), "variant": variant}
 
     def run():
@@ -273,6 +274,9 @@ def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int) 
         rng = np.random.default_rng([seed, episode])
         if variant == "orca":
             return simulate_orca(scenario, PlannerConfig(), rng, record_trajectories=False)
+        if variant == "cv":
+            return simulate(scenario, PlannerConfig(), SolverConfig.sampling(n_samples=1), rng,
+                            planner_factory=ConstantVelocityPlanner, record_trajectories=False)
         solver = SolverConfig.named(settings.solver)
         if settings.n_samples:
             solver = replace(solver, n_samples=settings.n_samples)
@@ -344,7 +348,7 @@ def run_benchmark(settings: CrowdSettings, variants, episodes: int, seed: int, o
     ``success_rate``, ``collision_rate``, ...) and every variant under ``variants``.
     ``progress``: where the status line and bar go (True: stderr, a stream, or None: nowhere).
     """
-    check_variants(variants)
+    check_variants(variants, CROWD_BASELINES)
     scene_files(settings.data, settings.scene)  # fail early on a bad scene
     table = ResultTable(out_dir, "crowd", ("variant", "episode", "seed"), settings.meta(),
                         resume=resume, overwrite=overwrite)

@@ -62,11 +62,13 @@ def require_pyrvo():
     return pyrvo
 
 
-def check_variants(variants) -> None:
-    """Every name is ``orca`` or a planner variant; pyrvo is importable when ``orca`` is asked."""
+def check_variants(variants, baselines=("orca",)) -> None:
+    """Every name is one of ``baselines`` or a planner variant; pyrvo is importable when
+    ``orca`` is asked."""
     for v in variants:
-        if v != "orca" and v not in VARIANTS:
-            raise InputError(f"--variants: {v!r}: must be orca or one of {', '.join(VARIANTS)}")
+        if v not in baselines and v not in VARIANTS:
+            raise InputError(f"--variants: {v!r}: must be one of "
+                             f"{', '.join((*baselines, *VARIANTS))}")
     if "orca" in variants:
         require_pyrvo()
 
