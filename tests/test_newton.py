@@ -55,21 +55,23 @@ def test_minimize_never_accepts_an_increase():
 
 @pytest.mark.skipif("newton" not in config_module.SOLVER_METHODS,
                     reason="SolverConfig does not offer method='newton' yet")
-def test_newton_nlp_solver_records_are_finite_and_in_the_box():
+def test_newton_nlp_solver_records_are_finite_and_in_the_box(monkeypatch):
     from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
     from dsmpepc_nlp.core.world import DynamicObstacle, World
     from dsmpepc_nlp.solve.nlp import NlpSolver
-    from dsmpepc_nlp.solve.nlp_graph import GraphSizes
+    from dsmpepc_nlp.solve.nlp_global import GraphSizes
     from dsmpepc_nlp.solve.sampling import structured_starts
 
+    monkeypatch.setenv("DSMPEPC_NO_COMPILE", "1")      # the logic, on the virtual machine
     cfg = PlannerConfig()
-    solver = NlpSolver(cfg, SolverConfig(method="newton", max_iter=15, n_screen=4),
-                       GraphSizes(max_objects=3, near_objects=2))
+    solver = NlpSolver(cfg, SolverConfig(method="newton", max_iter=15, n_screen=4,
+                                         pose_object_buckets=(3,)),
+                       GraphSizes(max_objects=3, table_cells=64, ray_samples=8))
     world = World(None, [DynamicObstacle.pedestrian([2.5, 0.6], [-0.4, 0.0])])
     state, goal = RobotState(0.0, 0.0, 0.0), np.array([5.0, 0.0])
     records = solver.solve(Cycle.prepare(state, world, goal, cfg),
                            structured_starts(state, goal, cfg))
-    solved = [r for r in records if r.status != "screened"]
+    solved = [r for r in records if r.status != "screened" and r.name != "polish"]
     assert len(solved) == solver.n_solved
     for record in solved:
         assert np.all(np.isfinite(record.z)) and np.isfinite(record.exact_cost)

@@ -1,4 +1,8 @@
-"""The NLP graph (smooth -> exact, CasADi == numpy assemble) and the multi-start solver."""
+"""The NLP graph (smooth -> exact, CasADi == numpy assemble) and the multi-start solver.
+
+The solver tests run the graph in CasADi's virtual machine on a small configuration (the
+solver logic does not depend on compiled code; ``test_nlp_global.py`` holds the compiled
+functions to the virtual machine)."""
 
 import casadi as ca
 import numpy as np
@@ -9,13 +13,20 @@ from dsmpepc_nlp.core.control_law import rollout
 from dsmpepc_nlp.core.costs import TERM_NAMES, assemble, evaluate, exact_geometry
 from dsmpepc_nlp.core.smooth import CASADI
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
-from dsmpepc_nlp.solve import nlp_graph
+from dsmpepc_nlp.solve import nlp_global
 from dsmpepc_nlp.solve.cycle import Cycle
 from dsmpepc_nlp.solve.nlp import NlpSolver, cost_function
 from dsmpepc_nlp.solve.sampling import SamplingPlanner, structured_starts
 
 CONFIG = PlannerConfig()
-SMALL = nlp_graph.GraphSizes(max_objects=3, near_objects=2)
+SMALL = nlp_global.GraphSizes(max_objects=3, table_cells=64, ray_samples=8)
+BUCKETS = dict(pose_object_buckets=(3,))
+
+
+@pytest.fixture(autouse=True)
+def _virtual_machine(monkeypatch):
+    """The solver logic on CasADi's virtual machine: no compilation in these tests."""
+    monkeypatch.setenv("DSMPEPC_NO_COMPILE", "1")
 
 
 def _random_z(rng, n):
@@ -29,13 +40,10 @@ def _open_world():
 
 
 def _graph_costs(z, state, world, goal, smoothing, sizes=SMALL):
-    """Graph cost of each z with the local models taken along that z's own rollout."""
+    """Graph cost of each z (the global graph: the cycle's parameters, any z)."""
     f = cost_function(CONFIG, sizes, smoothing)
-    costs = []
-    for zi in z:
-        params = nlp_graph.pack_parameters(state, world, goal, CONFIG, sizes, reference=zi)
-        costs.append(float(f(z=zi, **params)["cost"]))
-    return np.array(costs)
+    params = nlp_global.pack_parameters(Cycle.prepare(state, world, goal, CONFIG), sizes)
+    return np.array([float(f(z=zi, **params)["cost"]) for zi in z])
 
 
 def test_graph_with_exact_geometry_equals_numpy_assemble():
@@ -94,72 +102,15 @@ def _demo_cycle():
     return demo_cycles(CONFIG, 4, seed=0, n_samples=64)[3]
 
 
-def test_local_models_are_exact_at_the_reference_trajectory():
-    """Map, NF and wall-plane models along z's own rollout: exact temperatures give the exact
-    cost (crowded demo scene: map + 12 pedestrians, 2 nearest per pose)."""
-    state, world, goal = _demo_cycle()
-    z = _random_z(np.random.default_rng(4), 8)
-    exact = evaluate(rollout(z, state, CONFIG), world, goal, CONFIG).total
-    graph = _graph_costs(z, state, world, goal, SmoothingConfig.exact(),
-                         nlp_graph.GraphSizes(max_objects=12, near_objects=3))
-    np.testing.assert_allclose(graph, exact, atol=1e-6)
-
-
-def test_smooth_cost_converges_to_exact_at_the_reference_trajectory():
-    state, world, goal = _demo_cycle()
-    z = _random_z(np.random.default_rng(5), 6)
-    exact = evaluate(rollout(z, state, CONFIG), world, goal, CONFIG).total
-    sizes = nlp_graph.GraphSizes(max_objects=12, near_objects=3)
-    errors = [np.max(np.abs(_graph_costs(z, state, world, goal, CONFIG.smoothing.scaled(f),
-                                         sizes) - exact)) for f in (1.0, 0.1, 0.01)]
-    assert errors[0] < 0.01
-    assert errors[-1] < 1e-3
-    assert errors[-1] <= errors[0] + 1e-9
-
-
-def test_quadratic_model_is_exact_for_a_quadratic_and_damped_far_away():
-    def quadratic(points):
-        x, y = points[..., 0], points[..., 1]
-        return 1.0 + 2.0 * x - y + 0.5 * (3.0 * x * x + 2.0 * x * y + y * y)
-
-    model = nlp_graph.quadratic_models(quadratic, np.array([[0.0, 0.0]]), 0.1)[0]
-    np.testing.assert_allclose(model[2:], [1.0, 2.0, -1.0, 3.0, 1.0, 1.0], atol=1e-9)
-    point = ca.SX.sym("p", 2)
-    value, grad = nlp_graph.local_quadratic(point, ca.DM(model))
-    f = ca.Function("f", [point], [value, ca.vertcat(*grad), ca.gradient(value, point)])
-    near, _, _ = f([0.01, 0.02])
-    assert float(near) == pytest.approx(quadratic(np.array([0.01, 0.02])), abs=1e-5)
-    _, mine, autodiff = f([3.0, -2.0])
-    np.testing.assert_allclose(np.array(mine), np.array(autodiff), atol=1e-12)
-    far, _, _ = f([100.0, 0.0])
-    # The curvature term is bounded by 0.5 |H| R^2: no bending back far from the reference.
-    assert abs(float(far) - (1.0 + 200.0)) < 0.5 * 4.0 * nlp_graph.MODEL_RADIUS**2
-
-
-def test_wall_plane_inverse_ttc_matches_ray_march_head_on():
-    """Static 1/TTC through the wall plane equals v / ray distance toward a flat wall."""
-    world = _walled_world()            # wall surface at y = 1.0 m
-    state = RobotState(0.0, 0.0, np.pi / 2)
-    poses = np.array([[0.0, 0.0, np.pi / 2], [0.3, 0.2, np.pi / 2 - 0.3]])
-    _, map_model, _ = nlp_graph.pack_models(poses, world, [3.0, 0.0], CONFIG)
-    radius = CONFIG.robot.footprint[0][2]
-    for pose, row in zip(poses, map_model):
-        along = world.static_ray_distance(pose[None, :2], pose[2:], radius, 8.0)[0]
-        plane_point, normal = row[8:10], row[10:12]
-        plane_along = normal @ (pose[:2] - plane_point) / -(normal @ [np.cos(pose[2]),
-                                                                       np.sin(pose[2])])
-        assert plane_along == pytest.approx(along, abs=1e-9)
-    del state
-
-
 def test_solve_returns_finite_records_within_bounds():
-    solver = NlpSolver(CONFIG, SolverConfig(n_spread=2, max_iter=15, n_screen=4), SMALL)
+    solver = NlpSolver(CONFIG, SolverConfig(n_spread=2, max_iter=15, n_screen=4, **BUCKETS),
+                       SMALL)
     state, world, goal = RobotState(0.0, 0.0, 0.0), _open_world(), np.array([5.0, 0.0])
     starts = structured_starts(state, goal, CONFIG)
     records = solver.solve(Cycle.prepare(state, world, goal, CONFIG), starts)
-    assert [r.name for r in records] == (list(starts) + ["spread-0", "spread-1"]
-                                         + [f"screen-{i}" for i in range(4)])
-    assert sum(r.status != "screened" for r in records) == solver.n_solved
+    names = list(starts) + ["spread-0", "spread-1"] + [f"screen-{i}" for i in range(4)]
+    assert [r.name for r in records] in (names, names + ["polish"])
+    assert sum(r.status != "screened" and r.name != "polish" for r in records) == solver.n_solved
     for record in records:
         assert np.all(np.isfinite(record.z)) and np.isfinite(record.exact_cost)
         assert np.all(record.z >= np.array(CONFIG.z_lower) - 1e-12)
@@ -177,7 +128,8 @@ def test_solve_returns_finite_records_within_bounds():
     _walled_world(),
 ], ids=["empty", "more-than-k-max", "two-circle-robot", "map-only"])
 def test_solve_survives_unusual_worlds(world):
-    solver = NlpSolver(CONFIG, SolverConfig(n_spread=0, max_iter=8, n_screen=4), SMALL)
+    solver = NlpSolver(CONFIG, SolverConfig(n_spread=0, max_iter=8, n_screen=4, **BUCKETS),
+                       SMALL)
     state, goal = RobotState(0.0, 0.0, 0.0), np.array([4.0, 0.0])
     records = solver.solve(Cycle.prepare(state, world, goal, CONFIG),
                            structured_starts(state, goal, CONFIG))
@@ -209,21 +161,60 @@ def test_robot_starting_in_collision_does_not_move():
 def test_cost_function_has_named_terms():
     f = cost_function(CONFIG, SMALL)
     assert f.name_out() == ["cost", *TERM_NAMES]
-    assert f.name_in() == ["z", *nlp_graph.PARAMETER_NAMES]
+    assert f.name_in() == ["z", *nlp_global.PARAMETER_NAMES]
 
 
 def test_hessian_is_finite_at_stop_and_in_collision():
-    """The Hessian IPOPT uses is finite where v_max = 0 and where the robot overlaps a wall."""
+    """The Hessian the solvers use is finite where v_max = 0 and where the robot overlaps a
+    wall."""
+    from dsmpepc_nlp.solve import solvers
+
     state, world, goal = _demo_cycle()
-    f = cost_function(CONFIG, SMALL)
-    z = ca.SX.sym("z", 4)
-    shapes = nlp_graph.parameter_shapes(CONFIG, SMALL)
-    blocks = [ca.SX.sym(n, *shapes[n]) for n in nlp_graph.PARAMETER_NAMES]
-    hess = ca.Function("h", [z, *blocks], [ca.hessian(f(z, *blocks)[0], z)[0]])
     inside = RobotState(0.4, 6.0, 0.0)                 # overlapping the outer wall at x = 0.2
     radius = CONFIG.robot.footprint[0][2]
     assert world.static_distance(np.array([inside.x, inside.y])) < radius - 0.05
+    problem = solvers.problem(CONFIG, SMALL, SolverConfig())
     for s, zi in ((state, [2.0, 0.0, 0.0, 0.0]), (inside, [2.0, 0.0, 0.0, 0.5])):
-        params = nlp_graph.pack_parameters(s, world, goal, CONFIG, SMALL, reference=zi)
-        value = np.array(hess(zi, *(params[n] for n in nlp_graph.PARAMETER_NAMES)))
-        assert np.all(np.isfinite(value))
+        problem.bind(problem.pack(Cycle.prepare(s, world, goal, CONFIG)))
+        value, gradient, hessian = problem.fgh(np.array(zi))
+        assert np.isfinite(value) and np.all(np.isfinite(gradient))
+        assert np.all(np.isfinite(hessian))
+
+
+def test_polish_never_returns_worse_than_the_best_candidate_and_costs_exactly():
+    from dsmpepc_nlp.solve.sampling import evaluate_batch
+
+    state, world, goal = _demo_cycle()
+    cycle = Cycle.prepare(state, world, goal, CONFIG)
+    solver = NlpSolver(CONFIG, SolverConfig.fast(n_spread=0, max_iter=3, n_screen=16,
+                                                 **BUCKETS), SMALL)
+    records = solver.solve(cycle, structured_starts(state, goal, CONFIG))
+    best_start = min(r.exact_cost for r in records if r.name != "polish")
+    polished = [r for r in records if r.name == "polish"]
+    assert len(polished) <= 1
+    for record in polished:
+        assert record.exact_cost < best_start
+        exact = evaluate_batch(record.z[None], cycle).costs.total[0]
+        assert record.exact_cost == pytest.approx(exact, abs=1e-12)
+        assert np.all(record.z >= np.array(CONFIG.z_lower))
+        assert np.all(record.z <= np.array(CONFIG.z_upper))
+    off = NlpSolver(CONFIG, SolverConfig.fast(n_spread=0, max_iter=3, n_screen=16,
+                                              polish_rounds=0, **BUCKETS), SMALL)
+    assert all(r.name != "polish" for r in off.solve(cycle, structured_starts(state, goal,
+                                                                             CONFIG)))
+
+
+@pytest.mark.parametrize("hessian", ["differences", "quasi-newton"])
+def test_both_solvers_lower_the_smooth_cost_from_their_start(hessian):
+    from dsmpepc_nlp.solve import solvers
+
+    state, world, goal = _demo_cycle()
+    cycle = Cycle.prepare(state, world, goal, CONFIG)
+    problem = solvers.problem(CONFIG, SMALL, SolverConfig())
+    problem.bind(problem.pack(cycle))
+    z0 = np.array([2.0, 0.3, -0.2, 0.6])
+    for config in (SolverConfig(hessian=hessian, max_iter=15),
+                   SolverConfig.fast(hessian=hessian, max_iter=15)):
+        result = solvers.make_solver(config).solve(problem, z0)
+        assert result.success and np.all(np.isfinite(result.x))
+        assert result.fun <= problem.f(z0) + 1e-9

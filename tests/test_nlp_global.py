@@ -115,9 +115,15 @@ def test_compiled_functions_equal_the_virtual_machine_and_are_cached(tmp_path, m
         for name in compiled.NAMES:
             for mine, theirs in zip(built.call(name, z), machine.call(name, z)):
                 np.testing.assert_allclose(mine, theirs, rtol=1e-9, atol=1e-9)
-        # The CasADi external (what nlpsol calls) is the same code.
+        # The CasADi externals (what nlpsol calls) are the same code, with the parameters
+        # passed or bound.
         external = built.functions["F"](z, p)
         assert float(external) == pytest.approx(machine.call("F", z)[0].item(), abs=1e-9)
+        for name in compiled.NAMES:
+            bound = built.functions[name + "b"](z)
+            bound = bound if isinstance(bound, (list, tuple)) else [bound]
+            for mine, theirs in zip(bound, machine.call(name, z)):
+                np.testing.assert_allclose(np.array(mine), theirs, rtol=1e-9, atol=1e-9)
     started = time.perf_counter()
     again = compiled.build(cost, n_params, step, (SMALL_CONFIG, SMALL_SIZES))
     assert again.compiled and time.perf_counter() - started < 5.0
@@ -143,7 +149,8 @@ def test_no_compile_falls_back_to_the_virtual_machine_with_one_warning(tmp_path,
 
 
 def test_newton_on_the_global_graph_returns_finite_records(tmp_path, monkeypatch):
-    """``SolverConfig.fast(graph="global")``: no re-linearisation, records in the box."""
+    """``SolverConfig.fast()``: one solve per start, records in the box, never above the
+    start on the smooth cost."""
     from dsmpepc_nlp.core.config import SolverConfig
     from dsmpepc_nlp.solve.nlp import NlpSolver
     from dsmpepc_nlp.solve.sampling import structured_starts
@@ -151,28 +158,45 @@ def test_newton_on_the_global_graph_returns_finite_records(tmp_path, monkeypatch
     monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
     monkeypatch.setenv("DSMPEPC_NO_COMPILE", "1")
     state, world, goal = _demo()
-    solver = NlpSolver(SMALL_CONFIG, SolverConfig.fast(graph="global", n_screen=4,
-                                                       max_iter=10))
+    solver = NlpSolver(SMALL_CONFIG, SolverConfig.fast(n_screen=4, max_iter=10,
+                                                       pose_object_buckets=(2,)), SMALL_SIZES)
     cycle = Cycle.prepare(state, world, goal, SMALL_CONFIG)
     records = solver.solve(cycle, structured_starts(state, goal, SMALL_CONFIG))
-    solved = [r for r in records if r.status != "screened"]
-    assert len(solved) == solver.n_solved
-    assert all(s["outer"] == 0 for s in solver.last_stats)
+    solved = [r for r in records if r.status != "screened" and r.name != "polish"]
+    assert len(solved) == solver.n_solved == len(solver.last_stats)
     lower, upper = np.array(SMALL_CONFIG.z_lower), np.array(SMALL_CONFIG.z_upper)
     for record in records:
         assert np.all(np.isfinite(record.z)) and np.isfinite(record.exact_cost)
         assert np.all(record.z >= lower) and np.all(record.z <= upper)
+    sizes = solver.sizes_for(cycle)
+    cost = g.flat_cost(SMALL_CONFIG, sizes)
+    p = g.flatten_parameters(g.pack_parameters(cycle, sizes))
     for record in solved:
-        # A Newton solve never ends above its start on the smooth cost.
-        assert record.smooth_cost <= float(
-            g.flat_cost(SMALL_CONFIG, solver.global_sizes)(
-                record.z0, g.flatten_parameters(g.pack_parameters(cycle, solver.global_sizes))
-            )) + 1e-9
+        assert record.smooth_cost <= float(cost(record.z0, p)) + 1e-9
 
 
-def test_fast_global_is_a_named_solver():
+def test_object_bucket_is_the_smallest_holding_the_objects_in_reach():
     from dsmpepc_nlp.core.config import SolverConfig
+    from dsmpepc_nlp.solve.nlp import NlpSolver
 
-    solver = SolverConfig.named("fast-global")
-    assert solver.method == "newton" and solver.graph == "global"
-    assert SolverConfig.named("fast").graph == "local"
+    state, world, goal = _demo()
+    cycle = Cycle.prepare(state, world, goal, CONFIG)
+    in_reach = g.objects_in_reach(cycle)
+    assert 0 < in_reach < len(world.obstacles)
+    for buckets, expected in (((0, in_reach, 12), in_reach), ((0, in_reach - 1), in_reach - 1),
+                              ((in_reach + 1, 40), in_reach + 1)):
+        solver = NlpSolver(CONFIG, SolverConfig(pose_object_buckets=buckets))
+        assert solver.sizes_for(cycle).k_pose == expected
+
+
+def test_pose_objects_out_of_reach_change_nothing():
+    """The per-pose block holds only objects in reach: with exact temperatures the graph with
+    the smallest bucket that holds them equals the graph with every object at every pose."""
+    state, world, goal = _demo()
+    cycle = Cycle.prepare(state, world, goal, CONFIG)
+    z = _random_z(CONFIG, 8, 9)
+    everything = g.GraphSizes(max_objects=12)
+    reach = dataclasses.replace(everything, pose_objects=g.objects_in_reach(cycle))
+    exact = SmoothingConfig.exact()
+    np.testing.assert_allclose(_graph(CONFIG, reach, exact, cycle, z)["cost"],
+                               _graph(CONFIG, everything, exact, cycle, z)["cost"], atol=1e-12)

@@ -433,7 +433,7 @@ class RobotState:
         return np.array([self.x, self.y, self.phi, self.v, self.omega], dtype=float)
 
 
-SOLVER_METHODS = ("ipopt", "sqpmethod", "fatrop", "newton", "sampling")
+SOLVER_METHODS = ("ipopt", "newton", "sampling")
 
 
 @dataclass(frozen=True)
@@ -445,8 +445,8 @@ class SolverConfig:
     """
 
     method: str = "ipopt"
-    """``ipopt``, ``sqpmethod``, ``fatrop`` (CasADi ``nlpsol`` plugins), ``newton`` (our
-    trust-region Newton on the 4-D box over the same CasADi graph) or ``sampling``."""
+    """``ipopt`` (CasADi ``nlpsol`` on the compiled graph), ``newton`` (our trust-region Newton
+    on the 4-D box over the same compiled graph) or ``sampling``."""
     max_iter: int = 40
     """Iteration limit per start."""
     tol: float = 1e-5
@@ -459,8 +459,6 @@ class SolverConfig:
     """Samples of z for the sampling planner (low-discrepancy)."""
     seed: int = 0
     """Seed of the low-discrepancy sequence and of the spread starts."""
-    jit: bool = False
-    """Compile the NLP's functions to C (cached on disk by configuration)."""
     pair_budget: int = 2_000_000
     """Largest (trajectory, pose, footprint circle, obstacle circle) count the numpy exact cost
     handles in one chunk: keeps its temporaries near 100 MB however crowded the world."""
@@ -475,16 +473,24 @@ class SolverConfig:
     for IPOPT and 2 for the other methods."""
     distinct: float = 0.05
     """Two starts closer than this share of the box (max norm) count as one."""
-    relinearise_radius: float = 0.3
-    """Largest distance (m) between a solution's poses and the reference its local map and NF
-    models were taken along before they are re-taken and the start solved again."""
-    max_outer: int = 2
-    """Solves per start at most (the first plus re-linearisations)."""
     fd_step: float = 1e-6
     """Forward-difference step of the Hessian of the gradient, as a share of each variable's
-    range (``newton``)."""
-    newton_hessian: str = "differences"
-    """Hessian of ``newton``: ``differences`` of the gradient or the ``exact`` SX Hessian."""
+    range (``hessian="differences"``)."""
+    hessian: str = "differences"
+    """The Hessian the solvers use: ``differences`` of the compiled gradient (4 more
+    gradients), ``exact`` (compiled forward over reverse; minutes to compile) or
+    ``quasi-newton`` (gradients only: IPOPT's limited-memory update; for ``newton``
+    symmetric rank-one updates started from the differences)."""
+    pose_object_buckets: tuple = (0, 4, 12)
+    """Object counts the graph is compiled for at every pose; a cycle uses the smallest that
+    holds the objects in its reach (the largest when none does). Each is compiled on first
+    use and cached."""
+    polish_rounds: int = 4
+    """Rounds of the exact-cost polish after the solves: the best candidate's 80 neighbours
+    on a grid of ``polish_step`` (per variable, share of its range) are costed exactly and the
+    best kept, then the step halves; 0 turns it off."""
+    polish_step: float = 0.04
+    """First step of the polish, as a share of each variable's range."""
     trust_radius: float = 0.25
     """Initial trust radius of ``newton``, as a share of each variable's range."""
     soft_turn: float = 0.6
@@ -493,30 +499,39 @@ class SolverConfig:
     """|delta| of the hard-turn starts, rad (near the box's edge)."""
     turn_distance: float = 2.0
     """Target distance r of the turn starts, m."""
-    graph: str = "local"
-    """The cost graph ``newton`` minimises: ``local`` (models along each start's rollout,
-    re-linearised) or ``global`` (the cycle's tables, compiled C; see docs/nlp.md)."""
+    graph: str = "global"
+    """The cost graph: ``global`` (the cycle's tables, compiled C; docs/nlp.md) is the only one;
+    the field stays for callers that name it."""
 
     def __post_init__(self):
         if self.method not in SOLVER_METHODS:
             _fail("SolverConfig", "method", self.method, f"one of {', '.join(SOLVER_METHODS)}")
         for name, low in (("max_iter", 1), ("n_spread", 0), ("n_samples", 1), ("seed", 0),
                           ("pair_budget", 1), ("parallel_rows", 1),
-                          ("n_screen", 0), ("n_solved", 0), ("max_outer", 1)):
+                          ("n_screen", 0), ("n_solved", 0), ("polish_rounds", 0)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
                 _fail("SolverConfig", name, value, f"an integer >= {low}")
         positive = dict(low=0.0, low_open=True)
         _validate_fields(self, {"tol": positive, "distinct": dict(low=0.0, high=1.0),
-                                "relinearise_radius": positive, "fd_step": positive,
+                                "fd_step": positive, "polish_step": dict(low=0.0, high=1.0),
                                 "trust_radius": dict(low=0.0, low_open=True, high=1.0),
                                 "soft_turn": dict(low=0.0), "hard_turn": dict(low=0.0),
                                 "turn_distance": positive})
-        if self.graph not in ("local", "global"):
-            _fail("SolverConfig", "graph", self.graph, "'local' or 'global'")
-        if self.newton_hessian not in ("differences", "exact"):
-            _fail("SolverConfig", "newton_hessian", self.newton_hessian,
-                  "'differences' or 'exact'")
+        if self.graph != "global":
+            _fail("SolverConfig", "graph", self.graph, "'global'")
+        hessians = ("differences", "exact", "quasi-newton")
+        if self.hessian not in hessians:
+            _fail("SolverConfig", "hessian", self.hessian, " or ".join(map(repr, hessians)))
+        try:
+            buckets = tuple(sorted({int(b) for b in self.pose_object_buckets}))
+        except (TypeError, ValueError):
+            buckets = ()
+        if not buckets or buckets[0] < 0 or any(
+                isinstance(b, bool) or b != int(b) for b in self.pose_object_buckets):
+            _fail("SolverConfig", "pose_object_buckets", self.pose_object_buckets,
+                  "a non-empty sequence of integers >= 0")
+        object.__setattr__(self, "pose_object_buckets", buckets)
         try:
             options = tuple((str(k), v) for k, v in
                             (self.options.items() if isinstance(self.options, dict)
@@ -524,18 +539,16 @@ class SolverConfig:
         except (TypeError, ValueError):
             _fail("SolverConfig", "options", self.options, "a dict or sequence of (key, value)")
         object.__setattr__(self, "options", options)
-        if not isinstance(self.jit, bool):
-            _fail("SolverConfig", "jit", self.jit, "True or False")
 
     @classmethod
     def fast(cls, **changes) -> SolverConfig:
-        """Trust-region Newton on the 4-D box: exact box-QP step, finite-difference Hessian.
+        """Trust-region Newton on the 4-D box: exact box-QP step, quasi-Newton (SR1) Hessian.
 
         On 4 variables it needs no barrier and no per-call ``nlpsol`` overhead; ``tol`` is the
         predicted decrease counted as converged (1e-3, against the 0.01 cost tolerance).
-        ``SolverConfig(method="sqpmethod")`` is CasADi's SQP with ``qrqp``.
         """
         changes.setdefault("tol", 1e-3)
+        changes.setdefault("hessian", "quasi-newton")
         return cls(method="newton", **changes)
 
     @classmethod
@@ -545,10 +558,10 @@ class SolverConfig:
 
     @classmethod
     def named(cls, name: str) -> SolverConfig:
-        """``nlp`` (IPOPT), ``fast``, ``fast-global`` (fast on the global graph) or
-        ``sampling``, as on the command line."""
+        """``nlp`` (IPOPT), ``fast`` or ``sampling``, as on the command line (``fast-global``,
+        from when a local graph was the default, is ``fast``)."""
         makers = {"nlp": cls, "fast": cls.fast, "sampling": cls.sampling,
-                  "fast-global": lambda: cls.fast(graph="global")}
+                  "fast-global": cls.fast}
         if name not in makers:
             raise InputError(f"solver = {name!r}: must be one of {', '.join(makers)}")
         return makers[name]()

@@ -28,8 +28,6 @@ from .cache import cache_dir, compile_enabled, config_key, warn_once
 
 NAMES = ("F", "G", "H")
 """Generated functions of ``(z, p)``: ``F -> f``, ``G -> (f, grad)``, ``H -> (f, grad, hess)``."""
-
-
 def source_hash() -> str:
     """Hash of the modules that define the graph: a code change never loads stale C."""
     here = Path(__file__).resolve().parent
@@ -42,28 +40,70 @@ def source_hash() -> str:
     return digest.hexdigest()[:12]
 
 
-def problem_functions(cost: ca.Function, n_params: int, fd_step) -> dict:
+def problem_functions(cost: ca.Function, n_params: int, fd_step, hessian="differences") -> dict:
     """``F``, ``G``, ``H`` (and ``adj1_F`` for ``nlpsol``) from the cost graph.
 
-    ``cost(z, p) -> f`` takes the flat parameter vector. The Hessian is forward differences of
-    the gradient with steps ``fd_step`` (4,), symmetrised: the exact MX Hessian through the
-    table look-ups takes about a minute to build, and a bilinear table has no curvature to
-    add.
+    ``cost(z, p) -> f`` takes the flat parameter vector; it is inlined, so the gradient's
+    reverse sweep is built for ``z`` only. ``hessian``: ``differences`` (forward differences
+    of the gradient with steps ``fd_step`` (4,), symmetrised: a bilinear table has no
+    curvature to add) or ``exact`` (forward over reverse through the whole graph).
     """
     z, p = ca.MX.sym("z", 4), ca.MX.sym("p", n_params)
-    f = cost(z, p)
+    f = cost.call([z, p], True, False)[0]
     grad = ca.gradient(f, z)
     G = ca.Function("G", [z, p], [f, grad])
-    columns = []
-    for i in range(4):
-        step = np.zeros(4)
-        step[i] = fd_step[i]
-        columns.append((G(z + step, p)[1] - grad) / fd_step[i])
-    hess = ca.horzcat(*columns)
+    if hessian == "exact":
+        hess = ca.jacobian(grad, z)
+    else:
+        columns = []
+        for i in range(4):
+            step = np.zeros(4)
+            step[i] = fd_step[i]
+            columns.append((G(z + step, p)[1] - grad) / fd_step[i])
+        hess = ca.horzcat(*columns)
     F = ca.Function("F", [z, p], [f])
     H = ca.Function("H", [z, p], [f, grad, 0.5 * (hess + hess.T)])
-    adj = F.reverse(1)
-    return {"F": F, "G": G, "H": H, f"adj1_{F.name()}": adj}
+    out, seed = ca.MX.sym("out_f"), ca.MX.sym("adj_f")
+    adjoint = ca.Function("Fz_adj", [z, out, seed, p], [seed * grad])
+    return {"F": F, "G": G, "H": H, f"adj1_{F.name()}": F.reverse(1), "Fz_adj": adjoint}
+
+
+_BOUND_SHIM = """
+/* Bound variants (dsmpepc): NAMEb(z) is NAME(z, p) with the p of dsmpepc_bind(p), so that a
+   caller holding the parameters once per cycle (IPOPT through CasADi) passes z alone and no
+   copy of the tables is made per call. */
+static const casadi_real* dsmpepc_bound_p = 0;
+CASADI_SYMBOL_EXPORT void dsmpepc_bind(const casadi_real* p) { dsmpepc_bound_p = p; }
+"""
+
+_BOUND_FUNCTION = """
+CASADI_SYMBOL_EXPORT casadi_int BOUND_n_in(void) { return NIN; }
+CASADI_SYMBOL_EXPORT casadi_int BOUND_n_out(void) { return NAME_n_out(); }
+CASADI_SYMBOL_EXPORT const casadi_int* BOUND_sparsity_in(casadi_int i) {
+  return i < NIN ? NAME_sparsity_in(i) : 0;
+}
+CASADI_SYMBOL_EXPORT const casadi_int* BOUND_sparsity_out(casadi_int i) {
+  return NAME_sparsity_out(i);
+}
+CASADI_SYMBOL_EXPORT int BOUND_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw,
+                                    casadi_int *sz_w) {
+  int flag = NAME_work(sz_arg, sz_res, sz_iw, sz_w);
+  if (*sz_arg < NIN + 1) *sz_arg = NIN + 1;
+  return flag;
+}
+CASADI_SYMBOL_EXPORT int BOUND(const casadi_real** arg, casadi_real** res, casadi_int* iw,
+                               casadi_real* w, int mem) {
+  if (!dsmpepc_bound_p) return 1;
+  arg[NIN] = dsmpepc_bound_p;   /* p is NAME's last input; arg holds sz_arg > NIN pointers */
+  return NAME(arg, res, iw, w, mem);
+}
+"""
+
+BOUND_NAMES = ("Fb", "Gb", "Hb")
+"""``F``, ``G``, ``H`` of z alone, reading the parameters bound by :meth:`Compiled.bind`
+(what IPOPT calls; ``adj1_Fb``, the reverse derivative of ``Fb`` in z, is there for CasADi)."""
+_BOUND = (("Fb", "F", 1), ("Gb", "G", 1), ("Hb", "H", 1), ("adj1_Fb", "Fz_adj", 3))
+"""(bound name, generated function, inputs before p)."""
 
 
 def _compiler() -> str | None:
@@ -92,6 +132,11 @@ def compile_library(functions: dict, key: str, flags=("-O1",)) -> Path | None:
             generator.add(function)
         generator.generate(work + os.sep)
         source = Path(work) / f"nlp_{key}.c"
+        with open(source, "a") as handle:
+            handle.write(_BOUND_SHIM)
+            for bound, name, n_in in _BOUND:
+                handle.write(_BOUND_FUNCTION.replace("BOUND", bound).replace("NAME", name)
+                             .replace("NIN", str(n_in)))
         target = Path(work) / library.name
         done = subprocess.run([compiler, "-shared", "-fPIC", *flags, "-o", str(target),
                                str(source), "-lm"], capture_output=True, text=True)
@@ -150,7 +195,8 @@ class Compiled:
     Attributes
     ----------
     functions : dict of str to casadi.Function
-        External (compiled) functions, or the graph's own in the virtual machine.
+        External (compiled) functions, or the graph's own in the virtual machine; compiled,
+        also the bound ``Fb``, ``Gb``, ``Hb`` of z alone (:data:`BOUND_NAMES`).
     compiled : bool
         True when the functions run as compiled C.
     """
@@ -161,17 +207,23 @@ class Compiled:
             self.functions = functions
             self._c = None
             return
-        self.functions = {name: ca.external(name, str(library)) for name in NAMES}
+        self.functions = {name: ca.external(name, str(library)) for name in NAMES + BOUND_NAMES}
         handle = ctypes.CDLL(str(library))
         self._c = {name: CFunction(handle, name, functions[name]) for name in NAMES}
+        self._bind = handle.dsmpepc_bind
+        self._bind.argtypes = [ctypes.c_void_p]
+        self._bind.restype = None
 
     def bind(self, p: np.ndarray) -> None:
-        """Set the parameters of the following :meth:`call` s."""
+        """Set the parameters of the following :meth:`call` s (and, compiled, of the bound
+        functions ``Fb``, ``Gb``, ``Hb``: ``p`` is kept, not copied, until the next bind)."""
         if self._c is None:
             self._p = ca.DM(p)
         else:
+            self._p = np.ascontiguousarray(p, dtype=float)
             for function in self._c.values():
-                function.bind(p)
+                function.bind(self._p)
+            self._bind(self._p.ctypes.data)
 
     def call(self, name: str, z) -> list:
         """``name`` (F, G or H) at ``z`` with the bound parameters, as numpy arrays."""
@@ -182,14 +234,16 @@ class Compiled:
         return self._c[name](z)
 
 
-def build(cost: ca.Function, n_params: int, fd_step, key_parts: tuple) -> Compiled:
+def build(cost: ca.Function, n_params: int, fd_step, key_parts: tuple,
+          hessian="differences") -> Compiled:
     """Compile (or load from the cache) the problem's functions for one configuration."""
-    functions = problem_functions(cost, n_params, fd_step)
-    key = config_key(*key_parts, source_hash(), ca.__version__)
+    functions = problem_functions(cost, n_params, fd_step, hessian)
+    key = config_key(*key_parts, hessian, tuple(np.asarray(fd_step, dtype=float).tolist()),
+                     source_hash(), ca.__version__)
     return Compiled(functions, compile_library(functions, key))
 
 
-__all__ = ["CFunction", "Compiled", "build", "compile_library", "problem_functions",
+__all__ = ["BOUND_NAMES", "CFunction", "Compiled", "build", "compile_library", "problem_functions",
            "source_hash"]
 
 

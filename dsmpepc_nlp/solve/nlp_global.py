@@ -1,9 +1,9 @@
 """The smooth DS-MPEPC cost as one CasADi graph in z, valid wherever the horizon can reach.
 
-This is the cost to embed in your own optimiser (:func:`cost_function`): it reads the world
-through parameters set once per cycle, never through models taken along a reference
-trajectory (``nlp_graph.py``, which the built-in solvers still use), so its value is honest at
-every z:
+This is the graph the built-in solvers minimise (compiled, ``solvers.py``) and the cost to
+embed in your own optimiser (:func:`cost_function`): it reads the world through parameters set
+once per cycle, never through models taken along a reference trajectory, so its value is
+honest at every z:
 
 - the static signed distance and the navigation function as look-up tables over a window of
   ``GraphSizes.table_cells`` cells around the robot (the cycle's own tables, cut out at their
@@ -17,8 +17,9 @@ every z:
   tangent plane (the exact ray distance in front of any flat wall); at the horizon's end,
   where it reaches ``ttc_range`` ahead, from ``ray_samples`` samples of the distance along the
   ray (first crossing, interpolated between samples);
-- the ``max_objects`` dynamic objects that come nearest to the robot's start over the horizon,
-  moved at constant velocity inside the graph.
+- the ``max_objects`` dynamic objects that come nearest to the robot's start over the horizon
+  for the terminal time to collision, and at every pose the nearest ``pose_objects`` of those
+  the robot can reach, moved at constant velocity inside the graph.
 
 Everything but the look-ups is SX (compact derivatives); the cost is ``costs.assemble``, the
 formula the exact cost uses. Accuracy and speed, with the commands, are in ``docs/nlp.md``.
@@ -75,23 +76,37 @@ class GraphSizes:
     ray_samples : int
         Samples of the distance table along the terminal ray (``ttc_range`` long, start
         included) from which the terminal static time to collision is read.
+    pose_objects : int or None
+        Dynamic objects the graph sees at every pose of the horizon (the nearest of those the
+        robot can reach: an object out of reach has ``1 - P_c == 1.0`` exactly, see
+        ``cycle.CULL_SIGMAS``); None: ``max_objects``. The terminal time to collision always
+        sees ``max_objects``. The solvers compile a few sizes and pick the smallest that holds
+        the cycle's objects in reach (``SolverConfig.pose_object_buckets``).
     """
 
     max_objects: int = 12
     circles_per_object: int = 1
     table_cells: int = 256
     ray_samples: int = 64
+    pose_objects: int | None = None
 
     def __post_init__(self):
         for name, low in (("max_objects", 1), ("circles_per_object", 1), ("table_cells", 2),
-                          ("ray_samples", 2)):
+                          ("ray_samples", 2), ("pose_objects", 0)):
             value = getattr(self, name)
+            if name == "pose_objects" and value is None:
+                continue
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
                 raise InputError(f"GraphSizes.{name} = {value!r}: must be an integer >= {low}")
 
+    @property
+    def k_pose(self) -> int:
+        """Objects seen at every pose."""
+        return self.max_objects if self.pose_objects is None else self.pose_objects
 
-PARAMETER_NAMES = ("state", "goal", "obstacle_circles", "obstacle_velocities", "map_frame",
-                   "map_table", "nav_frame", "nav_table")
+
+PARAMETER_NAMES = ("state", "goal", "obstacle_circles", "obstacle_velocities", "pose_circles",
+                   "pose_velocities", "map_frame", "map_table", "nav_frame", "nav_table")
 """Named parameter inputs of :func:`build_cost_function`, in order."""
 
 
@@ -103,6 +118,8 @@ def parameter_shapes(config: PlannerConfig, sizes: GraphSizes) -> dict:
         "goal": (3, 1),
         "obstacle_circles": (sizes.max_objects * sizes.circles_per_object, 3),
         "obstacle_velocities": (sizes.max_objects, 2),
+        "pose_circles": (sizes.k_pose * sizes.circles_per_object, 3),
+        "pose_velocities": (sizes.k_pose, 2),
         "map_frame": (FRAME_COLUMNS, 1),
         "map_table": (cells, 1),
         "nav_frame": (FRAME_COLUMNS, 1),
@@ -222,8 +239,9 @@ def _static_geometry(poses, speeds, d, gx, gy, config, smoothing):
 
 
 def _dynamic_geometry(pose, speed, time, circles, velocities, config, smoothing, sizes):
-    """Distance (1 x K) and 1/TTC (1 x K) to each object at one pose, objects moved ``time``."""
-    c_obj, k_max = sizes.circles_per_object, sizes.max_objects
+    """Distance (1 x K) and 1/TTC (1 x K) to each object at one pose, objects moved ``time``
+    (K the rows of ``velocities``)."""
+    c_obj, k_max = sizes.circles_per_object, velocities.shape[0]
     cos, sin = ca.cos(pose[2]), ca.sin(pose[2])
     obj_vel = ca.kron(velocities, ca.DM.ones(c_obj, 1))              # (K C_obj) x 2
     centres = circles[:, :2] + time * obj_vel
@@ -313,15 +331,16 @@ def _pose_functions(config, sizes, smoothing):
     query = ca.Function("dsmpepc_pose_query", [pose, frame], [uv])
     d, gx, gy = _central(raw + outside, n_c, frame[2])
     static_d, static_inv = _static_geometry(pose, [speed], d, gx, gy, config, smoothing)
-    dyn_d, dyn_inv = _dynamic_geometry(pose, speed, time, p["obstacle_circles"],
-                                       p["obstacle_velocities"], config, smoothing, sizes)
-    inverse = ca.horzcat(static_inv[0], dyn_inv)
+    distance, inverse = static_d[0], static_inv[0]
+    if sizes.k_pose > 0:
+        dyn_d, dyn_inv = _dynamic_geometry(pose, speed, time, p["pose_circles"],
+                                           p["pose_velocities"], config, smoothing, sizes)
+        distance, inverse = ca.horzcat(distance, dyn_d), ca.horzcat(inverse, dyn_inv)
     if not config.anticipatory_pc:
-        inverse = ca.SX.zeros(1, 1 + sizes.max_objects)
+        inverse = ca.SX.zeros(1, 1 + sizes.k_pose)
     geometry = ca.Function("dsmpepc_pose_geometry",
-                           [pose, speed, time, raw, frame, p["obstacle_circles"],
-                            p["obstacle_velocities"]],
-                           [ca.horzcat(static_d[0], dyn_d), inverse])
+                           [pose, speed, time, raw, frame, p["pose_circles"],
+                            p["pose_velocities"]], [distance, inverse])
     return query, geometry
 
 
@@ -377,8 +396,8 @@ def _final_functions(config, sizes, smoothing):
     nf = euclid * norm + (1 - euclid) * table_nf
     descent = -ca.vertcat(euclid * dx[-1] / norm[-1] + (1 - euclid) * grad[0],
                           euclid * dy[-1] / norm[-1] + (1 - euclid) * grad[1])
-    distance = ca.SX.sym("distance", n, 1 + sizes.max_objects)
-    inverse = ca.SX.sym("inv_ttc", n, 1 + sizes.max_objects)
+    distance = ca.SX.sym("distance", n, 1 + sizes.k_pose)
+    inverse = ca.SX.sym("inv_ttc", n, 1 + sizes.k_pose)
     inv_term = ca.SX.sym("inv_term")
     end = poses[:, -1]
     err = heading_error(end[2], descent[0], descent[1], CASADI, smoothing)
@@ -388,7 +407,7 @@ def _final_functions(config, sizes, smoothing):
         smoothing, inverse_time=smoothing.inverse_time * config.cost.s_ttg / config.cost.s_ttc)
     inv_ttg = terminal_inverse_ttg((end[0], end[1], end[2]), vs[-1], goal, nf[-1], descent,
                                    config, CASADI, ttg_smoothing)
-    sigma = ca.DM([[config.cost.sigma_static] + [config.cost.sigma_dynamic] * sizes.max_objects])
+    sigma = ca.DM([[config.cost.sigma_static] + [config.cost.sigma_dynamic] * sizes.k_pose])
     sigma = ca.repmat(sigma, n, 1)  # CasADi does not broadcast a row
     total, terms, _ = assemble(distance, inverse, sigma, nf.T, vs, omegas, err, inv_ttg,
                                inv_term, config, smoothing, CASADI)
@@ -422,13 +441,14 @@ def build_cost_function(config: PlannerConfig, sizes: GraphSizes, smoothing=None
     z = ca.MX.sym("z", 4)
     p = {name: ca.MX.sym(name, *shape) for name, shape in shapes.items()}
     objects = (p["obstacle_circles"], p["obstacle_velocities"])
+    near = (p["pose_circles"], p["pose_velocities"])
     poses, vs, omegas = rollout(z, p["state"])
     distances, inverses = [], []
     for k in range(n_steps + 1):
         pose = poses[:, k]
         raw = _lookups(lookup, pose_query(pose, p["map_frame"]), p["map_table"])
         d, inv = pose_geometry(pose, vs[min(k, n_steps - 1)], k * dt, raw, p["map_frame"],
-                               *objects)
+                               *near)
         distances.append(d)
         inverses.append(inv)
     inv_term = ca.MX(0)
@@ -446,24 +466,32 @@ def build_cost_function(config: PlannerConfig, sizes: GraphSizes, smoothing=None
 # --- packing the world into parameters (numpy) ----------------------------------------------
 
 
-def pack_obstacles(cycle, sizes: GraphSizes):
-    """``(circles, velocities)`` of the K objects that come nearest to the robot's start.
+def pack_obstacles(cycle, sizes: GraphSizes, k_max: int | None = None,
+                   reach_only: bool = False):
+    """``(circles, velocities)`` of the ``k_max`` objects that come nearest to the robot's start.
 
     Returns ``circles`` ((K C_obj), 3: x, y, radius now) and ``velocities`` (K, 2); padding
-    objects sit FAR away.
+    objects sit FAR away. ``k_max`` defaults to ``sizes.max_objects``; with ``reach_only``
+    only the objects the robot can reach within the horizon are candidates
+    (``Cycle.in_reach``: the others change no bit of the collision probability).
     """
-    k_max, c_obj = sizes.max_objects, sizes.circles_per_object
+    k_max = sizes.max_objects if k_max is None else k_max
+    c_obj = sizes.circles_per_object
     circles = np.tile([FAR, FAR, 0.1], (k_max * c_obj, 1))
     velocities = np.zeros((k_max, 2))
     owner = cycle.owner
-    if len(owner) == 0:
+    if len(owner) == 0 or k_max == 0:
         return circles, velocities
     position = np.array([cycle.state.x, cycle.state.y])
     gap = np.min(np.linalg.norm(cycle.predicted - position, axis=-1), axis=0) - cycle.radii
     n_obj = int(owner.max()) + 1
     per_object = np.full(n_obj, np.inf)
     np.minimum.at(per_object, owner, gap)
-    for slot, index in enumerate(np.argsort(per_object, kind="stable")[:k_max]):
+    candidates = np.argsort(per_object, kind="stable")
+    if reach_only:
+        reach = np.asarray(cycle.in_reach, dtype=bool)[:n_obj]
+        candidates = candidates[reach[candidates]]
+    for slot, index in enumerate(candidates[:k_max]):
         mine = np.flatnonzero(owner == index)
         near = mine[np.argsort(gap[mine], kind="stable")[:c_obj]]
         # Padding circles repeat the nearest one: the min over circles is unchanged.
@@ -472,6 +500,11 @@ def pack_obstacles(cycle, sizes: GraphSizes):
             [cycle.centers[near], cycle.radii[near]])
         velocities[slot] = cycle.velocities[near[0]]
     return circles, velocities
+
+
+def objects_in_reach(cycle) -> int:
+    """How many dynamic objects the robot can reach within the horizon this cycle."""
+    return int(np.count_nonzero(cycle.in_reach))
 
 
 def pack_table(table, resolution, origin, centre, cells: int) -> tuple:
@@ -499,6 +532,7 @@ def pack_parameters(cycle, sizes: GraphSizes) -> dict:
     state, config, cells = cycle.state, cycle.config, sizes.table_cells
     v0, omega0 = clamp_measured(state, config)
     circles, velocities = pack_obstacles(cycle, sizes)
+    pose_circles, pose_velocities = pack_obstacles(cycle, sizes, sizes.k_pose, reach_only=True)
     centre = (state.x, state.y)
     grid = cycle.world.grid
     if grid is None:
@@ -521,6 +555,8 @@ def pack_parameters(cycle, sizes: GraphSizes) -> dict:
         "goal": np.array([goal[0], goal[1], euclidean]),
         "obstacle_circles": circles,
         "obstacle_velocities": velocities,
+        "pose_circles": pose_circles,
+        "pose_velocities": pose_velocities,
         "map_frame": map_frame,
         "map_table": map_table,
         "nav_frame": nav_frame,
@@ -547,7 +583,9 @@ def flat_cost(config: PlannerConfig, sizes: GraphSizes, smoothing=None) -> ca.Fu
     z, p = ca.MX.sym("z", 4), ca.MX.sym("p", sum(counts))
     blocks = ca.vertsplit(p, np.cumsum([0, *counts]).tolist())
     blocks = [ca.reshape(b, *shapes[n]) for b, n in zip(blocks, PARAMETER_NAMES)]
-    return ca.Function("dsmpepc_flat_cost", [z, p], [cost(z, *blocks)[0]])
+    # Inlined (not a call of ``cost``): a call's reverse sweep would also build the adjoint
+    # of every parameter, the two 65k-entry tables included, on every gradient.
+    return ca.Function("dsmpepc_flat_cost", [z, p], [cost.call([z, *blocks], True, False)[0]])
 
 
 def cost_function(config: PlannerConfig, sizes: GraphSizes | None = None,
