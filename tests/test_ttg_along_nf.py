@@ -176,23 +176,3 @@ def test_the_global_graph_reads_the_switch_as_the_exact_cost_does():
     assert np.max(np.abs(ours - exact)) < 0.02
     assert np.max(np.abs(ours - exact)) <= np.max(np.abs(paper - exact_paper)) + 1e-3
     assert np.max(np.abs(exact - exact_paper)) > 0.1 and np.max(np.abs(ours - paper)) > 0.1
-
-
-def test_the_local_graph_reads_the_switch_at_its_reference():
-    """The local graph (models along a reference trajectory) is exact at the reference with
-    exact temperatures, switch on: its cost equals the exact cost of every z there."""
-    pytest.importorskip("casadi")
-    from dsmpepc_nlp.core.config import RobotState, SmoothingConfig
-    from dsmpepc_nlp.core.control_law import rollout
-    from dsmpepc_nlp.solve import nlp_graph
-    from dsmpepc_nlp.solve.nlp import cost_function
-
-    config = along_nf(PlannerConfig.ds_mpepc(cost=CostConfig(s_ttg=0.05)))
-    state, world = RobotState(0.0, 0.0, math.pi / 2, 0.4), walled_world()
-    z = _random_z(config, 8, 6)
-    sizes = nlp_graph.GraphSizes(max_objects=3, near_objects=2)
-    f = cost_function(config, sizes, SmoothingConfig.exact())
-    graph = [float(f(z=zi, **nlp_graph.pack_parameters(state, world, GOAL, config, sizes,
-                                                       reference=zi))["terminal"]) for zi in z]
-    exact = evaluate(rollout(z, state, config), world, GOAL, config).terms["terminal"]
-    np.testing.assert_allclose(graph, exact, atol=1e-6)
