@@ -468,9 +468,8 @@ class SolverConfig:
     n_screen: int = 256
     """Low-discrepancy z costed exactly with the named starts before any solve (the landscape
     is multimodal: the NLP only runs from the best of them)."""
-    n_solved: int = 0
-    """Starts the NLP runs from (the warm start, then the best distinct others); 0 chooses 3
-    for IPOPT and 2 for the other methods."""
+    n_solved: int = 3
+    """Starts the NLP runs from (the warm start, then the best distinct others); 0 means 3."""
     distinct: float = 0.05
     """Two starts closer than this share of the box (max norm) count as one."""
     fd_step: float = 1e-6

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import functools
 import math
+import os
 import time
 from dataclasses import dataclass
 
@@ -26,7 +27,7 @@ import numpy as np
 from ..core.config import PlannerConfig, SolverConfig
 from ..core.errors import InputError
 from . import compiled, nlp_global
-from .cache import cache_dir, compile_enabled
+from .cache import compile_enabled
 from .newton import minimize
 
 
@@ -113,8 +114,10 @@ class Problem:
 def problem(config: PlannerConfig, sizes, solver: SolverConfig) -> Problem:
     """The :class:`Problem` of a configuration, built (or loaded from the disk cache) once per
     process and shared by every planner of that configuration. Not for concurrent threads."""
+    # The cache folder's override is part of the key (not cache_dir(): it reads the package
+    # metadata, a millisecond per plan).
     return _problem(config, sizes, _graph_knobs(solver), compile_enabled(),
-                    str(cache_dir("casadi")))
+                    os.environ.get("DSMPEPC_CACHE_DIR", ""))
 
 
 @functools.lru_cache(maxsize=32)
