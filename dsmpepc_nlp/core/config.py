@@ -475,11 +475,11 @@ class SolverConfig:
     fd_step: float = 1e-6
     """Forward-difference step of the Hessian of the gradient, as a share of each variable's
     range (``hessian="differences"``)."""
-    hessian: str = "differences"
-    """The Hessian the solvers use: ``differences`` of the compiled gradient (4 more
-    gradients), ``exact`` (compiled forward over reverse; minutes to compile) or
-    ``quasi-newton`` (gradients only: IPOPT's limited-memory update; for ``newton``
-    symmetric rank-one updates started from the differences)."""
+    hessian: str = "quasi-newton"
+    """The Hessian the solvers use: ``quasi-newton`` (gradients only: IPOPT's limited-memory
+    update; for ``newton`` symmetric rank-one updates started from the differences),
+    ``differences`` of the compiled gradient (4 more gradients per Hessian) or ``exact``
+    (compiled forward over reverse; minutes to compile, no faster than the differences)."""
     pose_object_buckets: tuple = (0, 4, 12)
     """Object counts the graph is compiled for at every pose; a cycle uses the smallest that
     holds the objects in its reach (the largest when none does). Each is compiled on first
@@ -490,6 +490,8 @@ class SolverConfig:
     best kept, then the step halves; 0 turns it off."""
     polish_step: float = 0.04
     """First step of the polish, as a share of each variable's range."""
+    polish_starts: int = 5
+    """Best distinct candidates (solved or screened, by exact cost) the polish starts from."""
     trust_radius: float = 0.25
     """Initial trust radius of ``newton``, as a share of each variable's range."""
     soft_turn: float = 0.6
@@ -507,7 +509,8 @@ class SolverConfig:
             _fail("SolverConfig", "method", self.method, f"one of {', '.join(SOLVER_METHODS)}")
         for name, low in (("max_iter", 1), ("n_spread", 0), ("n_samples", 1), ("seed", 0),
                           ("pair_budget", 1), ("parallel_rows", 1),
-                          ("n_screen", 0), ("n_solved", 0), ("polish_rounds", 0)):
+                          ("n_screen", 0), ("n_solved", 0), ("polish_rounds", 0),
+                          ("polish_starts", 1)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
                 _fail("SolverConfig", name, value, f"an integer >= {low}")
@@ -547,7 +550,6 @@ class SolverConfig:
         predicted decrease counted as converged (1e-3, against the 0.01 cost tolerance).
         """
         changes.setdefault("tol", 1e-3)
-        changes.setdefault("hessian", "quasi-newton")
         return cls(method="newton", **changes)
 
     @classmethod

@@ -175,29 +175,43 @@ class NlpSolver:
         return records + ([polished] if polished is not None else [])
 
     def _polish(self, records, cycle) -> StartRecord | None:
-        """Pattern search on the exact cost around the best candidate (see
-        ``SolverConfig.polish_rounds``): the smooth cost's optimum is near, not at, the exact
-        one (temperatures, bilinear tables). None when it finds nothing better."""
+        """Pattern search on the exact cost around the best distinct candidates (see
+        ``SolverConfig.polish_rounds``; all of them in one exact batch per round): the smooth
+        cost's optimum is near, not at, the exact one (temperatures, bilinear tables). None
+        when it finds nothing better than every candidate."""
         rounds = self.solver_config.polish_rounds
-        finite = [r for r in records if math.isfinite(r.exact_cost)]
+        finite = sorted((r for r in records if math.isfinite(r.exact_cost)),
+                        key=lambda r: r.exact_cost)
         if rounds == 0 or not finite:
             return None
-        best = min(finite, key=lambda r: r.exact_cost)
         started = time.perf_counter()
-        z, cost = best.z, best.exact_cost
-        step = self.solver_config.polish_step * (self.upper - self.lower)
+        span = self.upper - self.lower
+        seeds = []
+        for record in finite:
+            if len(seeds) == self.solver_config.polish_starts:
+                break
+            if all(np.max(np.abs(record.z - s.z) / span) > self.solver_config.distinct
+                   for s in seeds):
+                seeds.append(record)
+        z = np.array([r.z for r in seeds])
+        cost = np.array([r.exact_cost for r in seeds])
+        step = self.solver_config.polish_step * span
         for _ in range(rounds):
-            trial = np.clip(z + _NEIGHBOURS * step, self.lower, self.upper)
-            costs = evaluate_batch(trial, cycle).costs.total
-            i = int(np.argmin(np.where(np.isfinite(costs), costs, np.inf)))
-            if costs[i] < cost:
-                z, cost = trial[i], float(costs[i])
+            trial = np.clip(z[:, None, :] + _NEIGHBOURS * step, self.lower, self.upper)
+            costs = evaluate_batch(trial.reshape(-1, 4), cycle).costs.total
+            costs = np.where(np.isfinite(costs), costs, np.inf).reshape(len(z), -1)
+            best = np.argmin(costs, axis=1)
+            better = costs[np.arange(len(z)), best] < cost
+            z[better] = trial[better, best[better]]
+            cost[better] = costs[better, best[better]]
             step = step / 2
-        if not cost < best.exact_cost:
+        winner = int(np.argmin(cost))
+        if not cost[winner] < finite[0].exact_cost:
             return None
-        success = any(r.success for r in records)
-        return StartRecord("polish", best.z, z, f"polished '{best.name}'", success, rounds,
-                           time.perf_counter() - started, math.nan, cost)
+        origin = seeds[winner]
+        return StartRecord("polish", origin.z, z[winner], f"polished '{origin.name}'",
+                           any(r.success for r in records), rounds,
+                           time.perf_counter() - started, math.nan, float(cost[winner]))
 
     def _run(self, problem, name, z0) -> solvers.SolveResult:
         """One solve from ``z0`` (the warm start reuses the last plan's multipliers)."""
