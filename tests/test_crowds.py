@@ -128,3 +128,31 @@ def test_summary_splits_collisions_by_fault():
     assert summary["collision_rate"] == 0.75 and summary["success_rate"] == 0.25
     assert summary["at_fault_rate"] == 0.25 and summary["struck_rate"] == 0.5
     assert summary["spl"] == pytest.approx(0.2)
+
+
+def test_contact_age_tells_a_pedestrian_who_appeared_beside_the_robot(tmp_path):
+    from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
+    from dsmpepc_nlp.sim.simulate import simulate
+    from dsmpepc_nlp.sim.types import Agent, FixedGoal, Pedestrian, Scenario
+
+    def run(appear_at):
+        # offstage until ``appear_at`` (s), then standing 0.5 m ahead of the robot's path
+        ped = Pedestrian(np.array([0.0, appear_at - crowds.JUMP, appear_at, 30.0]),
+                         np.array([crowds.OFFSTAGE, crowds.OFFSTAGE, (2.0, 0.0), (2.0, 0.0)]))
+        scenario = Scenario("pop", (Agent("r", RobotState(0.0, 0.0, 0.0, 1.0),
+                                          FixedGoal((8.0, 0.0))),), pedestrians=(ped,),
+                            duration=6.0)
+        return simulate(scenario, PlannerConfig(), SolverConfig.sampling(n_samples=64),
+                        record_trajectories=False)
+
+    popped = run(1.3)  # appears where the robot, at about 1 m/s, is 0.3 m later
+    assert popped.outcomes == ["collision"]
+    assert crowds.contact_age(popped) < crowds.APPEARED
+    clear = run(0.1)   # there from the start: the robot stops in front of it
+    assert clear.outcomes != ["collision"] and np.isnan(crowds.contact_age(clear))
+    rows = [{"outcome": "collision", "collision_kind": "at-fault", "contact_age": 0.2},
+            {"outcome": "collision", "collision_kind": "at-fault", "contact_age": 3.0},
+            {"outcome": "success", "collision_kind": None, "contact_age": None}]
+    summary = crowds.summarise(rows)
+    assert summary["at_fault_rate"] == pytest.approx(2 / 3)
+    assert summary["at_fault_appeared_rate"] == pytest.approx(1 / 3)

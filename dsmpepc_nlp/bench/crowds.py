@@ -51,6 +51,9 @@ DEFAULT_DURATION = 30.0
 """Episode length, s."""
 SCENES = ("eth", "hotel", "univ", "zara1", "zara2")
 """Scene folders of the standard split."""
+APPEARED = 1.0
+"""A pedestrian on stage for less than this at contact appeared beside the robot (its track
+began there, out of nowhere), s: braking from 1 m/s at 1.5 m/s^2 alone takes 0.67 s."""
 
 
 @dataclass(frozen=True)
@@ -283,16 +286,33 @@ def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int) 
         return simulate(scenario, PlannerConfig.variant(variant), solver, rng,
                         record_trajectories=False)
 
-    return measured_row(row, run)
+    return measured_row(row, run, lambda episode: {"contact_age": contact_age(episode)})
 
 
-def measured_row(row: dict, run) -> dict:
-    """``row`` with the :func:`crowd_fields` of the episode ``run()`` returns and its
-    ``wall_time``; ``outcome="error"`` and the message when ``run`` raises (an ImportError, a
-    missing extra, propagates). Shared by the crowd benchmarks."""
+def contact_age(episode, robot: int = 0) -> float:
+    """How long (s) the pedestrian the robot collided with had been on stage at the contact;
+    NaN without a collision with a pedestrian (the touched one: the smallest gap then)."""
+    if episode.outcomes[robot] != "collision" or not episode.ped_radii.size:
+        return math.nan
+    k = int(np.searchsorted(episode.times, episode.outcome_times[robot] - 1e-9))
+    gaps = np.linalg.norm(episode.ped_positions[k] - episode.states[robot, k, :2], axis=1) \
+        - episode.ped_radii
+    j = int(np.argmin(gaps))
+    offstage = np.linalg.norm(episode.ped_positions[:k + 1, j], axis=1) > OFFSTAGE[0] / 10
+    gone = np.flatnonzero(offstage)
+    return float(episode.times[k] - (episode.times[gone[-1] + 1] if gone.size else 0.0))
+
+
+def measured_row(row: dict, run, extra=None) -> dict:
+    """``row`` with the :func:`crowd_fields` of the episode ``run()`` returns (and
+    ``extra(episode)``) and its ``wall_time``; ``outcome="error"`` and the message when ``run``
+    raises (an ImportError, a missing extra, propagates). Shared by the crowd benchmarks."""
     started = time.perf_counter()
     try:
-        row.update(crowd_fields(episode_metrics(run())[0]))
+        episode = run()
+        row.update(crowd_fields(episode_metrics(episode)[0]))
+        if extra is not None:
+            row.update(extra(episode))
     except ImportError:
         raise
     except Exception as exc:
@@ -321,7 +341,8 @@ def summarise(rows) -> dict:
     ``success_rate`` counts any collision as a failure; ``collision_rate`` is split into
     ``at_fault_rate`` and ``struck_rate`` (:func:`~dsmpepc_nlp.sim.metrics.collision_kind`).
     ``spl`` is the mean over all episodes (0 for a failure), ``time_to_goal`` over successes;
-    plan times: :func:`_plan_times`.
+    plan times: :func:`_plan_times`. Replay only: ``at_fault_appeared_rate`` counts the at-fault
+    collisions with a pedestrian on stage for less than :data:`APPEARED` (``contact_age``).
     """
     # A gap near OFFSTAGE means no pedestrian was on stage while the robot ran: not a distance.
     met = [r for r in rows if r.get("min_distance") is not None
@@ -332,6 +353,10 @@ def summarise(rows) -> dict:
     return {"episodes": n, **outcome_rates(r["outcome"] for r in rows),
             "at_fault_rate": kinds.count("at-fault") / n if n else math.nan,
             "struck_rate": kinds.count("struck") / n if n else math.nan,
+            "at_fault_appeared_rate": sum(
+                1 for r in rows if r.get("collision_kind") == "at-fault"
+                and r.get("contact_age") is not None and r["contact_age"] < APPEARED) / n
+            if n else math.nan,
             "time_to_goal": mean(rows, "time_to_goal", lambda r: r["outcome"] == "success"),
             "spl": mean(rows, "spl"), "jerk": mean(rows, "jerk"),
             "discomfort": mean(rows, "discomfort"),
