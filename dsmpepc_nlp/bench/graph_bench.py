@@ -115,6 +115,8 @@ def main(argv=None) -> int:
     parser.add_argument("--cycles", type=int, default=4)
     parser.add_argument("--max-objects", type=int, default=12)
     parser.add_argument("--ray-samples", type=int, default=64)
+    parser.add_argument("--pose-objects", type=int, default=None,
+                        help="objects at every pose (default: --max-objects)")
     parser.add_argument("--compare-fast", action="store_true",
                         help="also plan every cycle with nlp and fast and cross-check")
     parser.add_argument("--scenario", default=None,
@@ -127,7 +129,8 @@ def main(argv=None) -> int:
                           "fast": compare_fast(config, cycles)}, indent=2))
         return 0
     config = PlannerConfig()
-    sizes = g.GraphSizes(max_objects=args.max_objects, ray_samples=args.ray_samples)
+    sizes = g.GraphSizes(max_objects=args.max_objects, ray_samples=args.ray_samples,
+                         pose_objects=args.pose_objects)
     cycles = demo_cycles(config, args.cycles, seed=0, n_samples=64)
     report = {"sizes": str(sizes), "accuracy": accuracy(config, sizes, cycles),
               "speed": speed(config, sizes, Cycle.prepare(*cycles[0], config))}
