@@ -88,6 +88,12 @@ def numpy_only():
 
 
 def _import_kernel():
+    return import_numba_module("._exact_kernel", kernel_cache_dir())
+
+
+def import_numba_module(name: str, folder: Path):
+    """Import the numba module ``name`` (relative to this package) with numba's cache in
+    ``folder`` (raises ImportError without numba, OSError when the folder is not writable)."""
     import numba
 
     # numba's simple thread pool unless the user chose one: OpenMP's wake-up and barrier cost
@@ -96,9 +102,9 @@ def _import_kernel():
     os.environ.setdefault("NUMBA_THREADING_LAYER", "workqueue")
     numba.config.THREADING_LAYER = os.environ["NUMBA_THREADING_LAYER"]
     previous = numba.config.CACHE_DIR
-    numba.config.CACHE_DIR = str(kernel_cache_dir())
+    numba.config.CACHE_DIR = str(folder)
     try:  # numba picks the cache folder when the kernel is decorated, i.e. on import
-        return importlib.import_module("._exact_kernel", __package__)
+        return importlib.import_module(name, __package__)
     finally:
         numba.config.CACHE_DIR = previous
 

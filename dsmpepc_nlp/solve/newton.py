@@ -2,21 +2,27 @@
 
 With 4 variables, ``nlpsol``'s machinery (IPOPT's barrier, the SQP's QP and merit line search)
 costs more than it buys: the whole step problem ``min g.d + d'Hd/2`` over the box intersected
-with a trust region is solved exactly here by enumerating the 3^n faces of the box (batched
-numpy, ~0.1 ms), so an indefinite Hessian needs no convexification, and every accepted step
-decreases the objective (no non-monotone merit function). The objective, its gradient and its
-exact Hessian come from one CasADi ``Function`` call; a trial point costs one objective call.
+with a trust region is solved exactly here by enumerating the 3^n faces of the box (compiled
+with numba, :mod:`._newton_kernel`; the numpy definition :func:`box_qp_reference` without it),
+so an indefinite Hessian needs no convexification, and every accepted step decreases the
+objective (no non-monotone merit function). The objective, its gradient and its exact Hessian
+come from one CasADi ``Function`` call; a trial point costs one objective call.
 """
 
 from __future__ import annotations
 
+import hashlib
 import itertools
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
+from .cache import cache_dir, compile_enabled
+
 _FACES = {}
+_KERNEL = {}
 
 ETA = 0.05
 """Smallest ratio of actual to predicted decrease for a step to be accepted."""
@@ -44,6 +50,54 @@ def _faces(n: int):
 def box_qp(g, H, lower, upper) -> np.ndarray:
     """Global minimiser of ``g.d + d'Hd/2`` over ``lower <= d <= upper`` (small n, any H).
 
+    :func:`box_qp_reference` with its face enumeration in compiled code
+    (:mod:`._newton_kernel`, numba) when available; the reference otherwise.
+    """
+    g, H = np.asarray(g, dtype=float), np.asarray(H, dtype=float)
+    lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
+    module = _kernel()
+    if module is None:
+        return box_qp_reference(g, H, lower, upper)
+    d = _convex_step(g, H, lower, upper)
+    if d is not None:
+        return d
+    return module.box_qp_faces(g, H, lower, upper, *_faces(g.size))
+
+
+def _kernel():
+    """The compiled box QP module, or None (numba missing or compilation off)."""
+    if "module" not in _KERNEL:
+        _KERNEL["module"] = None
+        if compile_enabled():
+            from .exact import import_numba_module
+
+            source = Path(__file__).with_name("_newton_kernel.py").read_bytes()
+            folder = cache_dir("numba") / hashlib.sha1(source).hexdigest()[:16]
+            try:
+                folder.mkdir(parents=True, exist_ok=True)
+                _KERNEL["module"] = import_numba_module("._newton_kernel", folder)
+            except (ImportError, OSError):
+                pass
+    return _KERNEL["module"]
+
+
+def _convex_step(g, H, lower, upper):
+    """The Newton step when ``H`` is positive definite and the step lies in the box, else
+    None (the common case, no face enumeration)."""
+    try:
+        factor = np.linalg.cholesky(H)
+    except np.linalg.LinAlgError:
+        return None
+    d = -np.linalg.solve(factor.T, np.linalg.solve(factor, g))
+    if np.all(d >= lower) and np.all(d <= upper):
+        return d
+    return None
+
+
+def box_qp_reference(g, H, lower, upper) -> np.ndarray:
+    """Global minimiser of ``g.d + d'Hd/2`` over ``lower <= d <= upper`` (small n, any H):
+    the definition (numpy), which the compiled :func:`box_qp` is held to.
+
     The minimum of a quadratic over a box is a stationary point of its restriction to the
     relative interior of some face on which the reduced Hessian is positive semidefinite; every
     face with a positive definite reduced Hessian (and every vertex) is solved and the best
@@ -53,13 +107,9 @@ def box_qp(g, H, lower, upper) -> np.ndarray:
     g, H = np.asarray(g, dtype=float), np.asarray(H, dtype=float)
     lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
     n = g.size
-    try:  # the common case: a convex model whose minimiser lies inside the box
-        factor = np.linalg.cholesky(H)
-        d = -np.linalg.solve(factor.T, np.linalg.solve(factor, g))
-        if np.all(d >= lower) and np.all(d <= upper):
-            return d
-    except np.linalg.LinAlgError:
-        pass
+    d = _convex_step(g, H, lower, upper)  # the common case: a convex model, step in the box
+    if d is not None:
+        return d
     at_low, at_up, subset, both, pad = _faces(n)
     fixed = np.where(at_low, lower, np.where(at_up, upper, 0.0))              # (3^n, n)
     reduced = np.where(both, H, 0.0) + pad                                    # (2^n, n, n)
@@ -162,4 +212,4 @@ def minimize(f, fgh, x0, lower, upper, *, radius=0.25, max_iter=40, tol=1e-5,
     return NewtonResult(x, float(fx), nit, status, status == "converged", nfev, nhev)
 
 
-__all__ = ["NewtonResult", "box_qp", "minimize"]
+__all__ = ["NewtonResult", "box_qp", "box_qp_reference", "minimize"]
