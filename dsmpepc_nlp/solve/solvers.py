@@ -210,7 +210,11 @@ def ipopt_options(solver: SolverConfig, warm: bool) -> dict:
                     "ipopt.acceptable_tol": 1e10, "ipopt.acceptable_iter": 3,
                     "ipopt.acceptable_dual_inf_tol": 1e10,
                     "ipopt.acceptable_obj_change_tol": 1e-3,
-                    "ipopt.mu_strategy": "adaptive"})
+                    "ipopt.mu_strategy": "adaptive",
+                    # The probing (Mehrotra) barrier oracle: fewer iterations than the default
+                    # quality function on these 4-variable problems, at an equal or lower exact
+                    # cost (docs/nlp.md, "this pass").
+                    "ipopt.mu_oracle": "probing"})
     if solver.hessian == "quasi-newton":
         options["ipopt.hessian_approximation"] = "limited-memory"
     if warm:
