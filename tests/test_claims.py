@@ -72,22 +72,29 @@ def test_following_a_pedestrian_ends_without_collision(name):
 
 
 # ---------------------------------------------------------------------------------------------
-# The claim map (dsmpepc claims, README "Where the claim holds"): one cell per family, asserting
-# what the reduced map found with the sampler (4096 samples, seed 0), not what the paper hoped.
+# The claim map (dsmpepc claims, README "Where the claim holds"): cells of every family, asserting
+# what the full map found with the sampler (4096 samples, seed 0), not what the paper hoped.
 # The map runs the sampler whatever DSMPEPC_CLAIMS_SOLVER says, and so do these.
 
 MAP_FOUND = [
     # family, first axis, second axis, {variant: outcome of every robot}
     ("t-corridor", 1.0, 1.8, {"mpepc": "deadlock", "ds-mpepc": "success"}),
+    ("t-corridor", 1.0, 2.6, {"mpepc": "deadlock", "ds-mpepc": "success"}),
+    ("t-corridor", 0.85, 1.8, {"mpepc": "deadlock", "ds-mpepc": "deadlock"}),
+    # the ablations: the anticipatory collision probability passes, the terminal cost stops
+    ("t-corridor", 1.2, 1.8, {"pc-only": "success", "terminal-only": "deadlock"}),
     ("narrow-corridor", 1.4, 12.6, {"mpepc": "deadlock", "ds-mpepc": "success"}),
+    ("narrow-corridor", 1.2, 12.6, {"mpepc": "deadlock", "ds-mpepc": "deadlock"}),
     ("doorway", 1.0, 1.5, {"mpepc": "success", "ds-mpepc": "success"}),
+    # the one cell where MPEPC wins: DS-MPEPC stops in front of a 0.9 m door (4 seeds of 5)
+    ("doorway", 0.9, 1.5, {"mpepc": "success", "ds-mpepc": "deadlock"}),
 ]
 
 
 @pytest.mark.parametrize("family, x, y, expected", MAP_FOUND,
                          ids=[f"{f}-{x:g}-{y:g}" for f, x, y, _ in MAP_FOUND])
 def test_the_claim_map_cell(family, x, y, expected, tmp_path):
-    """The cell's outcome per variant, as the reduced claim map found it."""
+    """The cell's outcome per variant, as the full claim map found it."""
     scenario = load_scenario(families.save(family, x, y, tmp_path))
     for variant, outcome in expected.items():
         episode = simulate(scenario, PlannerConfig.variant(variant), SolverConfig.sampling(),
