@@ -36,19 +36,11 @@ T_CORRIDOR_SEEN = (
 )
 
 
-NARROW_CORRIDOR_SEEN = (
-    "does not reproduce with the NLP solvers: the scenario is exactly symmetric (both robots on "
-    "the corridor's centre line) and IPOPT and the Newton method, from symmetric starts, keep "
-    "both robots on it until they stop face to face (deadlock at ~27 s, both variants). The "
-    "sampling solver, whose sample set is not mirror-symmetric, lets DS-MPEPC pass (success at "
-    "12.6 s) while MPEPC deadlocks, as the paper says."
-)
-
-
 @pytest.mark.parametrize("name", [
     pytest.param("t-corridor", marks=pytest.mark.xfail(reason=T_CORRIDOR_SEEN, strict=False)),
-    pytest.param("narrow-corridor", marks=pytest.mark.xfail(
-        SOLVER != "sampling", reason=NARROW_CORRIDOR_SEEN, strict=False)),
+    # With the local-model NLP of earlier versions both robots stayed on the symmetric
+    # corridor's centre line and deadlocked; the global graph passes like the sampler.
+    "narrow-corridor",
 ])
 def test_mpepc_deadlocks_where_ds_mpepc_succeeds(name):
     """Paper Figs. 4 and 5: MPEPC deadlocks, DS-MPEPC reaches the goal."""
