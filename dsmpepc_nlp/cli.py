@@ -34,7 +34,7 @@ from .sim.simulate import simulate
 from .solve.exact import build as build_exact
 from .viz import figures
 
-SOLVERS = ("nlp", "sampling", "fast", "fast-global")
+SOLVERS = ("nlp", "sampling", "fast")
 
 DEFAULT_SAMPLE_CYCLES = 5
 """Cycles per robot whose evaluated trajectories a run records for its figure."""

@@ -15,7 +15,8 @@ from dsmpepc_nlp.core.smooth import CASADI
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 from dsmpepc_nlp.solve import nlp_global
 from dsmpepc_nlp.solve.cycle import Cycle
-from dsmpepc_nlp.solve.nlp import NlpSolver, cost_function
+from dsmpepc_nlp.solve.nlp import NlpSolver
+from dsmpepc_nlp.solve.nlp_global import cost_function
 from dsmpepc_nlp.solve.sampling import SamplingPlanner, structured_starts
 
 CONFIG = PlannerConfig()

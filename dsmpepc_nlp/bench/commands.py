@@ -36,7 +36,7 @@ from .results import parse_indices
 from .summary import fmt, summarised, summary_text  # noqa: F401 (summary_text re-exported)
 from .timing import run_bench
 
-SOLVERS = ("nlp", "fast", "sampling", "fast-global")
+SOLVERS = ("nlp", "fast", "sampling")
 PLANNER_VARIANTS = tuple(VARIANTS)
 
 

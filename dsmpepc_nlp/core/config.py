@@ -500,9 +500,6 @@ class SolverConfig:
     """|delta| of the hard-turn starts, rad (near the box's edge)."""
     turn_distance: float = 2.0
     """Target distance r of the turn starts, m."""
-    graph: str = "global"
-    """The cost graph: ``global`` (the cycle's tables, compiled C; docs/nlp.md) is the only one;
-    the field stays for callers that name it."""
 
     def __post_init__(self):
         if self.method not in SOLVER_METHODS:
@@ -520,8 +517,6 @@ class SolverConfig:
                                 "trust_radius": dict(low=0.0, low_open=True, high=1.0),
                                 "soft_turn": dict(low=0.0), "hard_turn": dict(low=0.0),
                                 "turn_distance": positive})
-        if self.graph != "global":
-            _fail("SolverConfig", "graph", self.graph, "'global'")
         hessians = ("differences", "exact", "quasi-newton")
         if self.hessian not in hessians:
             _fail("SolverConfig", "hessian", self.hessian, " or ".join(map(repr, hessians)))
@@ -559,10 +554,8 @@ class SolverConfig:
 
     @classmethod
     def named(cls, name: str) -> SolverConfig:
-        """``nlp`` (IPOPT), ``fast`` or ``sampling``, as on the command line (``fast-global``,
-        from when a local graph was the default, is ``fast``)."""
-        makers = {"nlp": cls, "fast": cls.fast, "sampling": cls.sampling,
-                  "fast-global": cls.fast}
+        """``nlp`` (IPOPT), ``fast`` or ``sampling``, as on the command line."""
+        makers = {"nlp": cls, "fast": cls.fast, "sampling": cls.sampling}
         if name not in makers:
             raise InputError(f"solver = {name!r}: must be one of {', '.join(makers)}")
         return makers[name]()

@@ -18,7 +18,6 @@ import itertools
 import math
 import time
 
-import casadi as ca
 import numpy as np
 
 from ..core.config import PlannerConfig, SolverConfig
@@ -30,15 +29,8 @@ from .sampling import box_samples, evaluate_batch
 _NEIGHBOURS = np.array([d for d in itertools.product((-1.0, 0.0, 1.0), repeat=4) if any(d)])
 """The 80 neighbours of a point on a 4-D grid (one step along any set of variables)."""
 
-__all__ = ["NlpSolver", "cost_function", "pack_parameters", "GraphSizes", "PARAMETER_NAMES",
+__all__ = ["NlpSolver", "pack_parameters", "GraphSizes", "PARAMETER_NAMES",
            "parameter_shapes"]
-
-
-def cost_function(config: PlannerConfig, sizes: GraphSizes | None = None,
-                  smoothing=None) -> ca.Function:
-    """The graph the built-in solvers minimise, to embed in your own problem
-    (:func:`dsmpepc_nlp.solve.nlp_global.cost_function`)."""
-    return nlp_global.cost_function(config, sizes, smoothing)
 
 
 class NlpSolver:
