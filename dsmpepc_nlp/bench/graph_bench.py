@@ -114,7 +114,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cycles", type=int, default=4)
     parser.add_argument("--max-objects", type=int, default=12)
-    parser.add_argument("--ray-samples", type=int, default=64)
+    parser.add_argument("--ray-samples", type=int, default=None,
+                        help="samples along the terminal ray (default: a footprint radius apart)")
     parser.add_argument("--pose-objects", type=int, default=None,
                         help="objects at every pose (default: --max-objects)")
     parser.add_argument("--compare-fast", action="store_true",

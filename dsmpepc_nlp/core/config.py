@@ -484,10 +484,11 @@ class SolverConfig:
     """Object counts the graph is compiled for at every pose; a cycle uses the smallest that
     holds the objects in its reach (the largest when none does). Each is compiled on first
     use and cached."""
-    polish_rounds: int = 4
+    polish_rounds: int = 5
     """Rounds of the exact-cost polish after the solves: the best candidate's 80 neighbours
     on a grid of ``polish_step`` (per variable, share of its range) are costed exactly and the
-    best kept, then the step halves; 0 turns it off."""
+    best kept, then the step halves; 0 turns it off. (4 before: a fifth round, at 1/400 of
+    each range, took hall's cross-check from 94.7 to 96.0 % for ~3 ms; docs/nlp.md.)"""
     polish_step: float = 0.04
     """First step of the polish, as a share of each variable's range."""
     polish_starts: int = 5
