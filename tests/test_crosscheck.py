@@ -41,5 +41,8 @@ def test_run_bench_shape():
     result = run_bench(n_cycles=1, ladder=(64,))
     for name in ("default", "fast", "sampling"):
         assert {"median_ms", "p95_ms"} <= set(result[name])
+    for name in ("default", "fast"):
+        assert result[name]["solves_per_plan"] >= 1
+        assert result[name]["derivative_evaluations"] >= 1
     assert math.isfinite(result["ratio_default_to_sampling"])
     assert isinstance(result["table"], str)

@@ -62,7 +62,7 @@ def run_bench(n_cycles: int = 20, seed: int = 0, config: PlannerConfig | None = 
         started = time.perf_counter()
         planner = Planner(config, solver)
         build_s = time.perf_counter() - started
-        times, costs, overheads = [], [], []
+        times, costs, overheads, solves = [], [], [], []
         spent = _solver_clock(planner)
         for state, world, goal in cycles:
             if spent:
@@ -71,11 +71,13 @@ def run_bench(n_cycles: int = 20, seed: int = 0, config: PlannerConfig | None = 
             times.append(plan.wall_time)
             costs.append(plan.fun)
             overheads.append(plan.wall_time - spent[0] if spent else np.nan)
+            solves.append(list(planner.nlp.last_stats) if planner.nlp is not None else [])
         # The compiled graph is built (or loaded) on the first plan of each object bucket.
         build_s += planner.nlp.build_s if planner.nlp is not None else 0.0
         result[name] = {**_summary(times), "build_s": build_s,
                         "overhead_ms": 1e3 * float(np.median(overheads)),
-                        "exact_cost_median": float(np.nanmedian(costs))}
+                        "exact_cost_median": float(np.nanmedian(costs)),
+                        **_solve_counts(solves)}
         if name == "default":
             nlp_costs = costs
     samplers = {n: Planner(config, SolverConfig.sampling(n_samples=n, seed=seed)) for n in ladder}
@@ -95,6 +97,19 @@ def run_bench(n_cycles: int = 20, seed: int = 0, config: PlannerConfig | None = 
     result.update(exact_timing(cycles, config, seed))
     result["table"] = format_table(result)
     return result
+
+
+def _solve_counts(solves) -> dict:
+    """Means over the NLP's solves of the cycles (``solves``: per cycle, ``last_stats``):
+    ``solves_per_plan``, ``iterations``, ``cost_evaluations`` and ``derivative_evaluations``
+    per solve (where a solve's time goes: see ``SolveResult.nfev``, ``ngev``)."""
+    flat = [s for cycle in solves for s in cycle]
+    if not flat:
+        return {}
+    return {"solves_per_plan": len(flat) / len(solves),
+            "iterations": float(np.mean([s["iter_count"] for s in flat])),
+            "cost_evaluations": float(np.mean([s["nfev"] for s in flat])),
+            "derivative_evaluations": float(np.mean([s["ngev"] for s in flat]))}
 
 
 def _median_s(run, repeats, clock=time.perf_counter):
@@ -183,6 +198,11 @@ def format_table(result: dict) -> str:
         if "overhead_ms" in result[name]:
             lines.append(f"{name} plan outside the NLP solver's runs: "
                          f"{result[name]['overhead_ms']:.1f} ms median")
+        if "solves_per_plan" in result[name]:
+            row = result[name]
+            lines.append(f"{name}: {row['solves_per_plan']:.1f} solves per plan; per solve "
+                         f"{row['iterations']:.1f} iterations, {row['cost_evaluations']:.1f} "
+                         f"cost and {row['derivative_evaluations']:.1f} derivative evaluations")
     return "\n".join(lines)
 
 

@@ -57,7 +57,8 @@ class NlpSolver:
     build_s : float
         Seconds spent building (or loading) the compiled graphs so far.
     last_stats : list of dict
-        Per solve of the last cycle: name, iterations, wall time, packing time, object bucket.
+        Per solve of the last cycle: name, iterations (``iter_count``), cost and derivative
+        evaluations (``nfev``, ``ngev``), wall time, packing time, object bucket.
     """
 
     def __init__(self, config: PlannerConfig, solver: SolverConfig | None = None,
@@ -149,6 +150,7 @@ class NlpSolver:
             name, z0 = named[i]
             result = self._run(problem, name, z0)
             self.last_stats.append({"name": name, "iter_count": result.nit,
+                                    "nfev": result.nfev, "ngev": result.ngev,
                                     "t_wall_total": result.time_s, "pack_s": pack_s,
                                     "pose_objects": problem.sizes.k_pose})
             records[i] = StartRecord(name, z0, result.x, result.status, result.success,

@@ -51,6 +51,11 @@ class SolveResult:
         Wall time of the solve.
     lam_x : ndarray or None
         Bound multipliers (IPOPT; for the next plan's warm start).
+    nfev : int
+        Evaluations of the cost alone (line search, trust-region trials).
+    ngev : int
+        Evaluations with derivatives: IPOPT's gradients; the Newton method's gradient or
+        Hessian calls (with ``quasi-newton`` the first is a difference Hessian, 5 gradients).
     """
 
     x: np.ndarray
@@ -60,6 +65,8 @@ class SolveResult:
     nit: int
     time_s: float
     lam_x: np.ndarray | None = None
+    nfev: int = 0
+    ngev: int = 0
 
 
 class Problem:
@@ -183,12 +190,14 @@ class NewtonSolver:
                           radius=self.solver.trust_radius, max_iter=self.solver.max_iter,
                           tol=self.solver.tol)
         elapsed = time.perf_counter() - started
+        counts = dict(nfev=result.nfev, ngev=result.nhev)
         if not (np.all(np.isfinite(result.x)) and math.isfinite(result.fun)):
             return SolveResult(np.asarray(z0, dtype=float), math.nan,
                                f"non-finite result ({result.status})", False, result.nit,
-                               elapsed)
+                               elapsed, **counts)
         return SolveResult(snap(result.x, problem.lower, problem.upper), result.fun,
-                           result.status, result.status != "non-finite", result.nit, elapsed)
+                           result.status, result.status != "non-finite", result.nit, elapsed,
+                           **counts)
 
 
 _QUIET_IPOPT = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes"}
@@ -268,12 +277,15 @@ class IpoptSolver:
         cost = float(result["f"])
         status = str(stats.get("return_status", "unknown"))
         nit = int(stats.get("iter_count", 0))
+        counts = dict(nfev=int(stats.get("n_call_nlp_f", 0)),
+                      ngev=int(stats.get("n_call_nlp_grad_f", 0)))
         if not (np.all(np.isfinite(z)) and math.isfinite(cost)):
             return SolveResult(np.asarray(z0, dtype=float), math.nan,
-                               f"non-finite result ({status})", False, nit, elapsed)
+                               f"non-finite result ({status})", False, nit, elapsed, **counts)
         usable = bool(stats.get("success", False)) or status in USABLE_STATUSES
         return SolveResult(snap(z, problem.lower, problem.upper), cost, status, usable, nit,
-                           elapsed, np.asarray(result["lam_x"], dtype=float).reshape(-1))
+                           elapsed, np.asarray(result["lam_x"], dtype=float).reshape(-1),
+                           **counts)
 
 
 def _build_ipopt(problem: Problem, solver: SolverConfig, warm: bool):
