@@ -96,3 +96,10 @@ def test_newton_nlp_solver_records_are_finite_and_in_the_box(monkeypatch):
     for record in solved:
         assert np.all(np.isfinite(record.z)) and np.isfinite(record.exact_cost)
         assert np.all(record.z >= np.array(cfg.z_lower)) and np.all(record.z <= cfg.z_upper)
+
+
+def test_compiled_loop_uses_the_python_loops_constants():
+    module = newton._kernel()
+    if module is None:
+        pytest.skip("numba missing or compilation off")
+    assert (module.ETA, module.SHRINK, module.GROW) == (newton.ETA, newton.SHRINK, newton.GROW)

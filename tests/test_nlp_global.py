@@ -130,6 +130,35 @@ def test_compiled_functions_equal_the_virtual_machine_and_are_cached(tmp_path, m
     assert len(list((tmp_path).rglob("*.so"))) == 1
 
 
+@pytest.mark.skipif(shutil.which("gcc") is None and shutil.which("cc") is None,
+                    reason="no C compiler")
+def test_compiled_newton_loop_takes_the_python_loops_steps(tmp_path, monkeypatch):
+    """The trust-region loop in compiled code (calling the generated functions itself) is
+    the Python loop with the SR1 Hessian: same iterations, evaluations, status and point
+    (to rounding: numba's and numpy's 4 x 4 products may differ in the last bit)."""
+    from dsmpepc_nlp.core.config import SolverConfig
+    from dsmpepc_nlp.solve import newton, solvers
+
+    monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("DSMPEPC_NO_COMPILE", raising=False)
+    problem = solvers.Problem(SMALL_CONFIG, SMALL_SIZES, SolverConfig())
+    assert problem.functions.compiled
+    problem.bind(_small_parameters())
+    if newton._kernel() is None:
+        pytest.skip("numba missing")
+    for z0 in _random_z(SMALL_CONFIG, 8, 7):
+        python = newton.minimize(problem.f, solvers.sr1(problem), z0, problem.lower,
+                                 problem.upper, max_iter=25)
+        native = newton.minimize_compiled(problem.functions, z0, problem.lower, problem.upper,
+                                          max_iter=25)
+        assert (native.nit, native.nfev, native.nhev, native.status) == \
+            (python.nit, python.nfev, python.nhev, python.status)
+        np.testing.assert_allclose(native.x, python.x, atol=1e-9)
+        assert native.fun == pytest.approx(python.fun, abs=1e-9)
+    machine = compiled.Compiled(problem.functions.functions, None)   # not compiled: no loop
+    assert newton.minimize_compiled(machine, z0, problem.lower, problem.upper) is None
+
+
 def test_no_compile_falls_back_to_the_virtual_machine_with_one_warning(tmp_path, monkeypatch):
     monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
     monkeypatch.setenv("DSMPEPC_NO_COMPILE", "1")

@@ -109,3 +109,110 @@ def box_qp_faces(g, H, lower, upper, at_low, at_up, subset, both, pad):  # pragm
     if best < 0:
         return np.zeros(n)
     return best_d
+
+
+# --- the whole trust-region loop, calling the compiled cost through function pointers -------
+
+ETA, SHRINK, GROW = 0.05, 0.25, 4.0
+"""``newton.ETA``, ``newton.SHRINK``, ``newton.GROW`` (a test holds them equal)."""
+
+
+@numba.njit(cache=True, fastmath=False, error_model="numpy")
+def _call(fn, buffers, z_in, z):  # pragma: no cover
+    """One generated CasADi function at ``z``: ``buffers`` = (arg, res, iw, w) addresses."""
+    z_in[:] = z
+    return fn(buffers[0], buffers[1], buffers[2], buffers[3], 0) == 0
+
+
+@numba.njit(cache=True, fastmath=False, error_model="numpy")
+def _box_qp(g, H, lower, upper, at_low, at_up, subset, both, pad):  # pragma: no cover
+    """``newton.box_qp``: the convex Newton step when it lies in the box, else the faces."""
+    try:
+        factor = np.linalg.cholesky(H)
+        d = -np.linalg.solve(factor.T, np.linalg.solve(factor, g))
+        inside = True
+        for i in range(g.size):
+            if not (d[i] >= lower[i] and d[i] <= upper[i]):
+                inside = False
+        if inside:
+            return d
+    except Exception:  # noqa: BLE001 (numba: not positive definite)
+        pass
+    return box_qp_faces(g, H, lower, upper, at_low, at_up, subset, both, pad)
+
+
+@numba.njit(cache=True, fastmath=False, error_model="numpy")
+def _finite(fx, g, H):  # pragma: no cover
+    return np.isfinite(fx) and np.all(np.isfinite(g)) and np.all(np.isfinite(H))
+
+
+@numba.njit(cache=True, fastmath=False, error_model="numpy")
+def minimize_sr1(f_fn, f_buf, f_in, f_out, g_fn, g_buf, g_in, g_out, g_grad,
+                 h_fn, h_buf, h_in, h_out, h_grad, h_hess, x0, lower, upper, radius,
+                 max_iter, tol, min_radius, at_low, at_up, subset, both, pad):  # pragma: no cover
+    """``newton.minimize`` with ``solvers.sr1``'s Hessian, evaluation for evaluation, on the
+    compiled F, G, H (``*_fn`` ctypes function pointers, ``*_buf`` their work addresses,
+    ``*_in`` the z buffer they read, ``*_out``/``*_grad``/``*_hess`` the buffers they write).
+
+    Returns ``(x, fun, nit, status, nfev, nhev)``; status 0 converged, 1 max_iter,
+    2 small_radius, 3 non-finite.
+    """
+    n = x0.size
+    span = np.empty(n)
+    x = np.empty(n)
+    for i in range(n):
+        span[i] = upper[i] - lower[i] if upper[i] > lower[i] else 1.0
+        x[i] = min(max(x0[i], lower[i]), upper[i])
+    ok = _call(h_fn, h_buf, h_in, x)
+    fx = h_out[0] if ok else np.nan
+    g = h_grad.copy()
+    H = h_hess.reshape((n, n)).T.copy()      # CasADi is column-major (H is symmetric)
+    nfev, nhev = 0, 1
+    if not _finite(fx, g, H):
+        return x, fx, 0, 3, nfev, nhev
+    # sr1's state: the last point the derivatives were taken at (accepted or not).
+    z_prev, g_prev, H_prev = x.copy(), g.copy(), H.copy()
+    status, nit = 1, 0
+    step_low = np.empty(n)
+    step_up = np.empty(n)
+    while nit < max_iter:
+        nit += 1
+        for i in range(n):
+            step_low[i] = max(lower[i] - x[i], -radius * span[i])
+            step_up[i] = min(upper[i] - x[i], radius * span[i])
+        d = _box_qp(g, H, step_low, step_up, at_low, at_up, subset, both, pad)
+        predicted = -(g @ d + 0.5 * d @ H @ d)
+        on_edge = False
+        for i in range(n):
+            if abs(abs(d[i]) - radius * span[i]) < 1e-9 * span[i]:
+                on_edge = True
+        if predicted <= tol and (not on_edge or predicted <= 1e-3 * tol):
+            status = 0
+            break
+        trial = x + d
+        f_trial = f_out[0] if _call(f_fn, f_buf, f_in, trial) else np.nan
+        nfev += 1
+        ratio = (fx - f_trial) / predicted if np.isfinite(f_trial) else -np.inf
+        if ratio < 0.25:
+            radius = SHRINK * max(np.max(np.abs(d) / span), 1e-12)
+        elif ratio > 0.75 and on_edge:
+            radius = min(GROW * radius, 1.0)
+        if ratio > ETA:
+            f_new = g_out[0] if _call(g_fn, g_buf, g_in, trial) else np.nan
+            g_new = g_grad.copy()
+            step, change = trial - z_prev, g_new - g_prev
+            H_new = H_prev.copy()
+            residual = change - H_new @ step
+            denominator = residual @ step
+            if abs(denominator) > 1e-8 * np.linalg.norm(step) * np.linalg.norm(residual):
+                H_new += np.outer(residual, residual) / denominator
+            z_prev, g_prev, H_prev = trial.copy(), g_new, H_new
+            nhev += 1
+            if _finite(f_new, g_new, H_new):
+                x, fx, g, H = trial, f_new, g_new, H_new.copy()
+            else:
+                radius *= SHRINK
+        if radius < min_radius:
+            status = 2
+            break
+    return x, fx, nit, status, nfev, nhev

@@ -148,6 +148,12 @@ def compile_library(functions: dict, key: str, flags=("-O1",)) -> Path | None:
     return library
 
 
+_NATIVE = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_size_t, ctypes.c_size_t, ctypes.c_size_t,
+                           ctypes.c_size_t, ctypes.c_int)
+"""A generated function's C signature with its pointers as integers (the same registers on
+every ABI CasADi targets): numba calls it with addresses it holds as numbers."""
+
+
 class CFunction:
     """One generated function called through ``ctypes`` with its parameters bound once.
 
@@ -181,6 +187,17 @@ class CFunction:
         """Use ``p`` (flat parameters) for every call until the next ``bind``."""
         self._p = np.ascontiguousarray(p, dtype=float)
         self._arg[1] = self._p.ctypes.data
+
+    def native(self) -> tuple:
+        """What compiled code needs to call this function itself: ``(pointer, buffers, z,
+        outputs)``. ``pointer`` is a ctypes function of four addresses (arg, res, iw, w) and
+        the memory flag, ``buffers`` those addresses (uint64), ``z`` the array the function
+        reads z from, ``outputs`` the arrays it writes (valid while this object lives; the
+        parameters are those of the last :meth:`bind`)."""
+        pointer = _NATIVE(ctypes.cast(self._call, ctypes.c_void_p).value)
+        buffers = np.array([ctypes.addressof(self._arg), ctypes.addressof(self._res),
+                            self._iw.ctypes.data, self._w.ctypes.data], dtype=np.uint64)
+        return pointer, buffers, self._z, self._outputs
 
     def __call__(self, z) -> list:
         self._z[:] = z
@@ -224,6 +241,10 @@ class Compiled:
             for function in self._c.values():
                 function.bind(self._p)
             self._bind(self._p.ctypes.data)
+
+    def native(self, name: str):
+        """:meth:`CFunction.native` of ``name`` (F, G or H); None on the virtual machine."""
+        return None if self._c is None else self._c[name].native()
 
     def call(self, name: str, z) -> list:
         """``name`` (F, G or H) at ``z`` with the bound parameters, as numpy arrays."""

@@ -28,7 +28,7 @@ from ..core.config import VARIANTS, PlannerConfig, SolverConfig
 from ..core.errors import InputError
 from . import compiled, nlp_global
 from .cache import compile_enabled
-from .newton import minimize
+from .newton import minimize, minimize_compiled
 
 
 @dataclass(frozen=True)
@@ -185,10 +185,17 @@ class NewtonSolver:
         """Minimise from ``z0``; ``lam_x`` is ignored (no multipliers to warm)."""
         del lam_x
         started = time.perf_counter()
-        fgh = sr1(problem) if self.solver.hessian == "quasi-newton" else problem.fgh
-        result = minimize(problem.f, fgh, z0, problem.lower, problem.upper,
-                          radius=self.solver.trust_radius, max_iter=self.solver.max_iter,
-                          tol=self.solver.tol)
+        knobs = dict(radius=self.solver.trust_radius, max_iter=self.solver.max_iter,
+                     tol=self.solver.tol)
+        result = None
+        if self.solver.hessian == "quasi-newton":
+            # The loop in compiled code when it can be (no Python per evaluation); the
+            # Python loop below is its definition and the fallback.
+            result = minimize_compiled(problem.functions, z0, problem.lower, problem.upper,
+                                       **knobs)
+        if result is None:
+            fgh = sr1(problem) if self.solver.hessian == "quasi-newton" else problem.fgh
+            result = minimize(problem.f, fgh, z0, problem.lower, problem.upper, **knobs)
         elapsed = time.perf_counter() - started
         counts = dict(nfev=result.nfev, ngev=result.nhev)
         if not (np.all(np.isfinite(result.x)) and math.isfinite(result.fun)):
