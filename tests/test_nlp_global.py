@@ -146,17 +146,19 @@ def test_compiled_newton_loop_takes_the_python_loops_steps(tmp_path, monkeypatch
     problem.bind(_small_parameters())
     if newton._kernel() is None:
         pytest.skip("numba missing")
-    for z0 in _random_z(SMALL_CONFIG, 8, 7):
+    starts = _random_z(SMALL_CONFIG, 8, 7)
+    natives = newton.minimize_compiled(problem.functions, starts, problem.lower, problem.upper,
+                                       max_iter=25)       # all at once, on parallel threads
+    assert len(natives) == len(starts)
+    for z0, native in zip(starts, natives):
         python = newton.minimize(problem.f, solvers.sr1(problem), z0, problem.lower,
                                  problem.upper, max_iter=25)
-        native = newton.minimize_compiled(problem.functions, z0, problem.lower, problem.upper,
-                                          max_iter=25)
         assert (native.nit, native.nfev, native.nhev, native.status) == \
             (python.nit, python.nfev, python.nhev, python.status)
         np.testing.assert_allclose(native.x, python.x, atol=1e-9)
         assert native.fun == pytest.approx(python.fun, abs=1e-9)
     machine = compiled.Compiled(problem.functions.functions, None)   # not compiled: no loop
-    assert newton.minimize_compiled(machine, z0, problem.lower, problem.upper) is None
+    assert newton.minimize_compiled(machine, starts, problem.lower, problem.upper) is None
 
 
 def test_no_compile_falls_back_to_the_virtual_machine_with_one_warning(tmp_path, monkeypatch):

@@ -160,7 +160,7 @@ def exact_timing(cycles, config: PlannerConfig, seed: int = 0, n: int = 4096,
 
 
 def _solver_clock(planner) -> list:
-    """Time spent inside the NLP solver's runs (``NlpSolver._run``: one solve from one start),
+    """Time spent inside the NLP solver's runs (``NlpSolver._run``: the solves of one plan),
     accumulated into the returned one-element list; empty when the planner has no such method."""
     run = getattr(planner.nlp, "_run", None)
     if run is None:

@@ -182,22 +182,42 @@ class CFunction:
         for i, out in enumerate(self._outputs):
             self._res[i] = out.ctypes.data
         self._p = None
+        self._rows = {}
 
     def bind(self, p: np.ndarray) -> None:
         """Use ``p`` (flat parameters) for every call until the next ``bind``."""
         self._p = np.ascontiguousarray(p, dtype=float)
         self._arg[1] = self._p.ctypes.data
 
-    def native(self) -> tuple:
-        """What compiled code needs to call this function itself: ``(pointer, buffers, z,
-        outputs)``. ``pointer`` is a ctypes function of four addresses (arg, res, iw, w) and
-        the memory flag, ``buffers`` those addresses (uint64), ``z`` the array the function
-        reads z from, ``outputs`` the arrays it writes (valid while this object lives; the
-        parameters are those of the last :meth:`bind`)."""
+    def native_rows(self, rows: int) -> tuple:
+        """ What compiled code needs to call this function itself, with ``rows`` independent
+        sets of buffers (one per thread): ``(pointer, buffers, z, outputs)``. ``pointer`` is a
+        ctypes function of four addresses (arg, res, iw, w) and the memory flag, ``buffers``
+        those addresses per row ``(rows, 4)`` uint64, ``z`` ``(rows, 4)`` where each row's
+        call reads z, ``outputs`` one ``(rows, nnz)`` array per output it writes. The arrays
+        are kept here, so they live as long as this object; each call points them at the
+        parameters of the last :meth:`bind`."""
+        if rows not in self._rows:
+            n_arg, n_res = len(self._arg), len(self._res)
+            z = np.zeros((rows, self._z.size))
+            outputs = [np.zeros((rows, out.size)) for out in self._outputs]
+            iw = np.zeros((rows, self._iw.size), dtype=np.int64)
+            w = np.zeros((rows, self._w.size))
+            arg = np.zeros((rows, n_arg), dtype=np.uint64)
+            res = np.zeros((rows, n_res), dtype=np.uint64)
+            for r in range(rows):
+                arg[r, 0] = z[r].ctypes.data
+                for i, out in enumerate(outputs):
+                    res[r, i] = out[r].ctypes.data
+            index = np.arange(rows, dtype=np.uint64)
+            buffers = np.stack([np.uint64(a.ctypes.data) + index * np.uint64(a.strides[0])
+                                for a in (arg, res, iw, w)], axis=1)
+            self._rows[rows] = (arg, buffers, z, outputs, res, iw, w)
+        arg, buffers, z, outputs = self._rows[rows][:4]
+        if self._p is not None:
+            arg[:, 1] = self._p.ctypes.data
         pointer = _NATIVE(ctypes.cast(self._call, ctypes.c_void_p).value)
-        buffers = np.array([ctypes.addressof(self._arg), ctypes.addressof(self._res),
-                            self._iw.ctypes.data, self._w.ctypes.data], dtype=np.uint64)
-        return pointer, buffers, self._z, self._outputs
+        return pointer, buffers, z, outputs
 
     def __call__(self, z) -> list:
         self._z[:] = z
@@ -242,9 +262,10 @@ class Compiled:
                 function.bind(self._p)
             self._bind(self._p.ctypes.data)
 
-    def native(self, name: str):
-        """:meth:`CFunction.native` of ``name`` (F, G or H); None on the virtual machine."""
-        return None if self._c is None else self._c[name].native()
+    def native(self, name: str, rows: int = 1):
+        """:meth:`CFunction.native_rows` of ``name`` (F, G or H); None on the virtual
+        machine."""
+        return None if self._c is None else self._c[name].native_rows(rows)
 
     def call(self, name: str, z) -> list:
         """``name`` (F, G or H) at ``z`` with the bound parameters, as numpy arrays."""

@@ -216,29 +216,34 @@ _STATUS = ("converged", "max_iter", "small_radius", "non-finite")
 
 
 def minimize_compiled(functions, x0, lower, upper, *, radius=0.25, max_iter=40, tol=1e-5,
-                      min_radius=1e-4) -> NewtonResult | None:
-    """:func:`minimize` with ``solvers.sr1``'s quasi-Newton Hessian, the whole loop compiled.
+                      min_radius=1e-4) -> list | None:
+    """:func:`minimize` with ``solvers.sr1``'s quasi-Newton Hessian from every row of ``x0``
+    (k, n), the whole loop compiled and the starts on parallel threads.
 
     ``functions`` is a :class:`~dsmpepc_nlp.solve.compiled.Compiled` with its parameters
     bound; the loop (:func:`._newton_kernel.minimize_sr1`, numba) calls the generated F, G
-    and H itself: no Python per evaluation. The same steps as the Python loop (a test holds
-    them together). None when the loop cannot run compiled (no numba, compilation off, or
-    the functions on CasADi's virtual machine): use :func:`minimize`.
+    and H itself: no Python per evaluation. Each start takes the same steps as the Python
+    loop (a test holds them together). Returns one :class:`NewtonResult` per start, or None
+    when the loop cannot run compiled (no numba, compilation off, or the functions on
+    CasADi's virtual machine): use :func:`minimize`.
     """
     module = _kernel()
-    natives = [functions.native(name) for name in ("F", "G", "H")]
+    x0 = np.atleast_2d(np.asarray(x0, dtype=float))
+    natives = [functions.native(name, len(x0)) for name in ("F", "G", "H")]
     if module is None or any(n is None for n in natives):
         return None
     (f_fn, f_buf, f_in, f_out), (g_fn, g_buf, g_in, g_out), (h_fn, h_buf, h_in, h_out) = natives
     lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
-    x0 = np.asarray(x0, dtype=float)
-    x, fun, nit, status, nfev, nhev = module.minimize_sr1(
+    x, fun, counts = module.minimize_sr1_many(
         f_fn, f_buf, f_in, f_out[0], g_fn, g_buf, g_in, g_out[0], g_out[1],
         h_fn, h_buf, h_in, h_out[0], h_out[1], h_out[2], x0, lower, upper, float(radius),
-        int(max_iter), float(tol), float(min_radius), *_faces(x0.size))
-    status = _STATUS[status]
-    return NewtonResult(np.array(x), float(fun), int(nit), status, status == "converged",
-                        int(nfev), int(nhev))
+        int(max_iter), float(tol), float(min_radius), *_faces(x0.shape[1]))
+    results = []
+    for row, value, (nit, status, nfev, nhev) in zip(x, fun, counts):
+        status = _STATUS[status]
+        results.append(NewtonResult(np.array(row), float(value), int(nit), status,
+                                    status == "converged", int(nfev), int(nhev)))
+    return results
 
 
 __all__ = ["NewtonResult", "box_qp", "box_qp_reference", "minimize", "minimize_compiled"]

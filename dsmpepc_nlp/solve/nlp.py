@@ -146,9 +146,9 @@ class NlpSolver:
         problem.bind(problem.pack(cycle))
         pack_s = time.perf_counter() - packed
         best_cost, best_lam = math.inf, None
-        for i in self._choose(named, costs):
+        chosen = self._choose(named, costs)
+        for i, result in zip(chosen, self._run(problem, [named[i] for i in chosen])):
             name, z0 = named[i]
-            result = self._run(problem, name, z0)
             self.last_stats.append({"name": name, "iter_count": result.nit,
                                     "nfev": result.nfev, "ngev": result.ngev,
                                     "t_wall_total": result.time_s, "pack_s": pack_s,
@@ -207,6 +207,8 @@ class NlpSolver:
                            any(r.success for r in records), rounds,
                            time.perf_counter() - started, math.nan, float(cost[winner]))
 
-    def _run(self, problem, name, z0) -> solvers.SolveResult:
-        """One solve from ``z0`` (the warm start reuses the last plan's multipliers)."""
-        return self._solver.solve(problem, z0, self._lam_x if name == "warm" else None)
+    def _run(self, problem, named) -> list:
+        """The solves from every ``(name, z0)`` of ``named`` (the warm start reuses the last
+        plan's multipliers), one :class:`~dsmpepc_nlp.solve.solvers.SolveResult` each."""
+        return self._solver.solve_many(problem, [(z0, self._lam_x if name == "warm" else None)
+                                                 for name, z0 in named])

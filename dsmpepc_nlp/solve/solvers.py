@@ -183,25 +183,40 @@ class NewtonSolver:
 
     def solve(self, problem: Problem, z0, lam_x=None) -> SolveResult:
         """Minimise from ``z0``; ``lam_x`` is ignored (no multipliers to warm)."""
-        del lam_x
+        return self.solve_many(problem, [(z0, lam_x)])[0]
+
+    def solve_many(self, problem: Problem, starts) -> list:
+        """Minimise from every ``(z0, lam_x)`` of ``starts`` (``lam_x`` ignored).
+
+        With the quasi-Newton Hessian on compiled functions the starts run at once on
+        parallel threads, the loop compiled (:func:`.newton.minimize_compiled`; each
+        result's ``time_s`` is then the batch's wall time); else one after another in the
+        Python loop, its definition.
+        """
         started = time.perf_counter()
         knobs = dict(radius=self.solver.trust_radius, max_iter=self.solver.max_iter,
                      tol=self.solver.tol)
-        result = None
+        z0s = [np.asarray(z0, dtype=float) for z0, _ in starts]
         if self.solver.hessian == "quasi-newton":
-            # The loop in compiled code when it can be (no Python per evaluation); the
-            # Python loop below is its definition and the fallback.
-            result = minimize_compiled(problem.functions, z0, problem.lower, problem.upper,
-                                       **knobs)
-        if result is None:
+            results = minimize_compiled(problem.functions, np.array(z0s), problem.lower,
+                                        problem.upper, **knobs)
+            if results is not None:
+                elapsed = time.perf_counter() - started
+                return [self._result(problem, z0, r, elapsed) for z0, r in zip(z0s, results)]
+        out = []
+        for z0 in z0s:
+            begun = time.perf_counter()
             fgh = sr1(problem) if self.solver.hessian == "quasi-newton" else problem.fgh
             result = minimize(problem.f, fgh, z0, problem.lower, problem.upper, **knobs)
-        elapsed = time.perf_counter() - started
+            out.append(self._result(problem, z0, result, time.perf_counter() - begun))
+        return out
+
+    @staticmethod
+    def _result(problem, z0, result, elapsed) -> SolveResult:
         counts = dict(nfev=result.nfev, ngev=result.nhev)
         if not (np.all(np.isfinite(result.x)) and math.isfinite(result.fun)):
-            return SolveResult(np.asarray(z0, dtype=float), math.nan,
-                               f"non-finite result ({result.status})", False, result.nit,
-                               elapsed, **counts)
+            return SolveResult(z0, math.nan, f"non-finite result ({result.status})", False,
+                               result.nit, elapsed, **counts)
         return SolveResult(snap(result.x, problem.lower, problem.upper), result.fun,
                            result.status, result.status != "non-finite", result.nit, elapsed,
                            **counts)
@@ -261,6 +276,10 @@ class IpoptSolver:
         if key not in self._built:
             self._built[key] = _build_ipopt(problem, self.solver, warm)
         return self._built[key]
+
+    def solve_many(self, problem: Problem, starts) -> list:
+        """:meth:`solve` from every ``(z0, lam_x)`` of ``starts``, one after another."""
+        return [self.solve(problem, z0, lam_x) for z0, lam_x in starts]
 
     def solve(self, problem: Problem, z0, lam_x=None) -> SolveResult:
         """Minimise from ``z0``, warm-started from ``lam_x`` when given."""
