@@ -147,9 +147,9 @@ def _finite(fx, g, H):  # pragma: no cover
 
 
 @numba.njit(cache=True, fastmath=False, error_model="numpy")
-def minimize_sr1(f_fn, f_buf, f_in, f_out, g_fn, g_buf, g_in, g_out, g_grad,
+def minimize_sr1(f_fn, f_buf, f_in, f_out, g_fn, g_buf, g_in, g_out, g_grad,  # pragma: no cover
                  h_fn, h_buf, h_in, h_out, h_grad, h_hess, x0, lower, upper, radius,
-                 max_iter, tol, min_radius, at_low, at_up, subset, both, pad):  # pragma: no cover
+                 max_iter, tol, min_radius, at_low, at_up, subset, both, pad):
     """``newton.minimize`` with ``solvers.sr1``'s Hessian, evaluation for evaluation, on the
     compiled F, G, H (``*_fn`` ctypes function pointers, ``*_buf`` their work addresses,
     ``*_in`` the z buffer they read, ``*_out``/``*_grad``/``*_hess`` the buffers they write).
@@ -219,9 +219,9 @@ def minimize_sr1(f_fn, f_buf, f_in, f_out, g_fn, g_buf, g_in, g_out, g_grad,
 
 
 @numba.njit(cache=True, fastmath=False, error_model="numpy", parallel=True)
-def minimize_sr1_many(f_fn, f_buf, f_in, f_out, g_fn, g_buf, g_in, g_out, g_grad,
-                      h_fn, h_buf, h_in, h_out, h_grad, h_hess, x0, lower, upper, radius,
-                      max_iter, tol, min_radius, at_low, at_up, subset, both, pad):  # pragma: no cover
+def minimize_sr1_many(f_fn, f_buf, f_in, f_out, g_fn, g_buf, g_in, g_out,  # pragma: no cover
+                      g_grad, h_fn, h_buf, h_in, h_out, h_grad, h_hess, x0, lower, upper, radius,
+                      max_iter, tol, min_radius, at_low, at_up, subset, both, pad):
     """:func:`minimize_sr1` from every row of ``x0`` at once, one thread per start: each
     start has its own row of every buffer (the generated functions keep no state of their
     own: the bound parameters are only read)."""
