@@ -127,3 +127,5 @@ def test_variants_side_by_side_with_orca(tmp_path, tiny, capsys):
     assert summary["runs"] == 4
     assert summary["variants"]["orca"]["tiny"]["runs"] == 2
     assert summary["variants"]["orca"]["tiny"]["failed"] == 0
+    planner = summary["variants"]["mpepc"]["tiny"]
+    assert 0 < planner["plan_time_median"] <= planner["plan_time_p95"]

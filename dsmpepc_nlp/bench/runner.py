@@ -125,3 +125,14 @@ def mean(rows, key: str, pick=None) -> float:
     """Mean of ``row[key]`` over the rows (that ``pick(row)``) where it is not None; NaN if none."""
     values = [r[key] for r in rows if (pick is None or pick(r)) and r.get(key) is not None]
     return float(np.mean(values)) if values else math.nan
+
+
+def plan_time_summary(rows) -> dict:
+    """``plan_time_median``: the median over rows of each row's median plan time;
+    ``plan_time_p95``: the 95th percentile over rows of each row's 95th percentile (s; NaN
+    without plans). Rows are episodes, runs or worlds."""
+    out = {}
+    for key, q in (("plan_time_median", 50), ("plan_time_p95", 95)):
+        values = [r[key] for r in rows if r.get(key) is not None and not math.isnan(r[key])]
+        out[key] = float(np.percentile(values, q)) if values else math.nan
+    return out

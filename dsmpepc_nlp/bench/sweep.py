@@ -29,7 +29,7 @@ from ..viz import figures
 from .orca import check_variants, simulate_orca
 from .params import SECTIONS, configure, parse_params  # noqa: F401 (re-exported)
 from .results import ResultTable
-from .runner import mean, outcome_rates, run_all
+from .runner import mean, outcome_rates, plan_time_summary, run_all
 
 
 def expand_grid(params: dict, scenarios, seeds) -> list:
@@ -100,7 +100,8 @@ def run_one(run: dict, settings: SweepSettings) -> dict:
             path_length=float(np.mean([m["path_length"] for m in metrics])),
             min_static_clearance=float(min(m["min_static_clearance"] for m in metrics)),
             min_dynamic_clearance=float(min(m["min_dynamic_clearance"] for m in metrics)),
-            plan_time_median=float(np.nanmedian([m["plan_time_median"] for m in metrics])))
+            plan_time_median=float(np.nanmedian([m["plan_time_median"] for m in metrics])),
+            plan_time_p95=float(np.nanpercentile([m["plan_time_p95"] for m in metrics], 95)))
     except Exception as exc:
         row.update(status="failed", message=f"{type(exc).__name__}: {exc}")
     row["wall_time"] = time.perf_counter() - started
@@ -175,8 +176,9 @@ def run_scenarios(variants, scenarios, seeds, settings: SweepSettings, out_dir, 
     """Planner variants (``orca`` included) side by side on scenarios x seeds.
 
     The table is ``scenarios.{json,csv}`` keyed by (variant, scenario, seed); the summary has,
-    per variant and scenario, the rates over seeds and robots. ``progress``: True (stderr), a
-    stream or None (nowhere).
+    per variant and scenario, the rates over seeds and robots and the plan times
+    (:func:`~dsmpepc_nlp.bench.runner.plan_time_summary` over the runs). ``progress``: True
+    (stderr), a stream or None (nowhere).
     """
     check_variants(variants)
     for name in scenarios:
@@ -204,7 +206,8 @@ def run_scenarios(variants, scenarios, seeds, settings: SweepSettings, out_dir, 
                                             "timeout_rate", "time_to_goal")},
                 "min_dynamic_clearance": min((r["min_dynamic_clearance"] for r in ok
                                               if r.get("min_dynamic_clearance") is not None),
-                                             default=math.nan)}
+                                             default=math.nan),
+                **plan_time_summary(ok)}
         summary["variants"][v] = per
     summary["table"] = str(table.csv_path)
     return summary
