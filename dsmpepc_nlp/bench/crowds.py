@@ -37,7 +37,7 @@ from ..sim.types import Agent, FixedGoal, Pedestrian, Scenario
 from .cv import CROWD_BASELINES, ConstantVelocityPlanner
 from .orca import check_variants, simulate_orca
 from .results import ResultTable
-from .runner import mean, outcome_rates, run_all
+from .runner import mean, outcome_rates, plan_time_summary, run_all
 
 FRAMES_PER_STEP = 10
 """Frame ids advance by this much per annotation step."""
@@ -345,8 +345,9 @@ def summarise(rows) -> dict:
     ``success_rate`` counts any collision as a failure; ``collision_rate`` is split into
     ``at_fault_rate`` and ``struck_rate`` (:func:`~dsmpepc_nlp.sim.metrics.collision_kind`).
     ``spl`` is the mean over all episodes (0 for a failure), ``time_to_goal`` over successes;
-    plan times: :func:`_plan_times`. Replay only: ``at_fault_appeared_rate`` counts the at-fault
-    collisions with a pedestrian on stage for less than :data:`APPEARED` (``contact_age``).
+    plan times: :func:`~dsmpepc_nlp.bench.runner.plan_time_summary`. Replay only:
+    ``at_fault_appeared_rate`` counts the at-fault collisions with a pedestrian on stage for
+    less than :data:`APPEARED` (``contact_age``).
     """
     # A gap near OFFSTAGE means no pedestrian was on stage while the robot ran: not a distance.
     met = [r for r in rows if r.get("min_distance") is not None
@@ -367,18 +368,7 @@ def summarise(rows) -> dict:
             "min_distance_mean": mean(met, "min_distance"),
             "episodes_with_pedestrians": len(met),
             "min_distance": float(np.min(gaps)) if gaps else math.nan,
-            **_plan_times(rows)}
-
-
-def _plan_times(rows) -> dict:
-    """``plan_time_median``: the median over episodes of each episode's median plan time;
-    ``plan_time_p95``: the 95th percentile over episodes of each episode's 95th percentile
-    (s; NaN without plans)."""
-    out = {}
-    for key, q in (("plan_time_median", 50), ("plan_time_p95", 95)):
-        values = [r[key] for r in rows if r.get(key) is not None and not math.isnan(r[key])]
-        out[key] = float(np.percentile(values, q)) if values else math.nan
-    return out
+            **plan_time_summary(rows)}
 
 
 def run_benchmark(settings: CrowdSettings, variants, episodes: int, seed: int, out_dir, *,
