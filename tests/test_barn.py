@@ -113,6 +113,7 @@ def test_benchmark_resume_skips_done_worlds(tmp_path, monkeypatch):
     s = settings(tmp_path / "data")
     rows, summary = barn.run_benchmark(s, [0], tmp_path / "out", workers=1, progress=None)
     assert summary["worlds"] == 1 and (tmp_path / "out" / "barn.png").exists()
+    assert 0 < summary["plan_time_median"] <= summary["plan_time_p95"]
     ran = []
     original = barn.run_world
     monkeypatch.setattr(barn, "run_world", lambda i, st: ran.append(i) or original(i, st))

@@ -40,7 +40,7 @@ from ..sim.types import Agent, FixedGoal, Scenario
 from ..viz import figures
 from .params import configure
 from .results import ResultTable
-from .runner import mean, outcome_rates, run_all
+from .runner import mean, outcome_rates, plan_time_summary, run_all
 
 CELL = 0.15
 """BARN cell side and cylinder diameter, m."""
@@ -316,12 +316,12 @@ def run_world(index: int, settings: BarnSettings) -> dict:
 
 
 def summarise(rows) -> dict:
-    """Rates and means over result rows (``error`` rows count as failures)."""
-    plan = [r["plan_time_median"] for r in rows if r.get("plan_time_median") is not None]
+    """Rates and means over result rows (``error`` rows count as failures); plan times:
+    :func:`~dsmpepc_nlp.bench.runner.plan_time_summary` over the worlds."""
     return {"worlds": len(rows), **outcome_rates(r["outcome"] for r in rows),
             "mean_score": mean(rows, "score"),
             "mean_time_success": mean(rows, "time", lambda r: r["outcome"] == "success"),
-            "plan_time_median": float(np.median(plan)) if plan else math.nan}
+            **plan_time_summary(rows)}
 
 
 def run_benchmark(settings: BarnSettings, worlds, out_dir, *, workers: int | None = None,
