@@ -159,6 +159,22 @@ def test_compiled_newton_loop_takes_the_python_loops_steps(tmp_path, monkeypatch
         assert native.fun == pytest.approx(python.fun, abs=1e-9)
     machine = compiled.Compiled(problem.functions.functions, None)   # not compiled: no loop
     assert newton.minimize_compiled(machine, starts, problem.lower, problem.upper) is None
+    # A compiled loop that fails (say a numba that cannot type the call) warns once and hands
+    # over to the Python loop: the solver still solves.
+    def broken(*args):
+        raise TypeError("cannot type")
+
+    monkeypatch.setattr(newton._kernel(), "minimize_sr1_many", broken)
+    monkeypatch.setitem(newton._KERNEL, "loop_failed", False)
+    monkeypatch.setattr(cache, "_WARNED", set())
+    with pytest.warns(RuntimeWarning, match="compiled Newton loop failed"):
+        assert newton.minimize_compiled(problem.functions, starts, problem.lower,
+                                        problem.upper) is None
+    fast = SolverConfig.fast(max_iter=25)
+    result = solvers.NewtonSolver(fast).solve(problem, starts[0])
+    python = newton.minimize(problem.f, solvers.sr1(problem), starts[0], problem.lower,
+                             problem.upper, radius=fast.trust_radius, max_iter=25, tol=fast.tol)
+    assert result.nit == python.nit and result.fun == pytest.approx(python.fun, abs=1e-12)
 
 
 def test_no_compile_falls_back_to_the_virtual_machine_with_one_warning(tmp_path, monkeypatch):

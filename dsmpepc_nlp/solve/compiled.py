@@ -150,8 +150,9 @@ def compile_library(functions: dict, key: str, flags=("-O1",)) -> Path | None:
 
 _NATIVE = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_size_t, ctypes.c_size_t, ctypes.c_size_t,
                            ctypes.c_size_t, ctypes.c_int)
-"""A generated function's C signature with its pointers as integers (the same registers on
-every ABI CasADi targets): numba calls it with addresses it holds as numbers."""
+"""A generated function's C signature with its pointers as integers (``size_t`` and a pointer
+have the same size and are passed alike on the platforms numba runs on): numba calls it with
+addresses it holds as numbers."""
 
 
 class CFunction:
@@ -190,7 +191,7 @@ class CFunction:
         self._arg[1] = self._p.ctypes.data
 
     def native_rows(self, rows: int) -> tuple:
-        """ What compiled code needs to call this function itself, with ``rows`` independent
+        """What compiled code needs to call this function itself, with ``rows`` independent
         sets of buffers (one per thread): ``(pointer, buffers, z, outputs)``. ``pointer`` is a
         ctypes function of four addresses (arg, res, iw, w) and the memory flag, ``buffers``
         those addresses per row ``(rows, 4)`` uint64, ``z`` ``(rows, 4)`` where each row's

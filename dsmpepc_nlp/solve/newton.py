@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .cache import cache_dir, compile_enabled
+from .cache import cache_dir, compile_enabled, warn_once
 
 _FACES = {}
 _KERNEL = {}
@@ -228,16 +228,24 @@ def minimize_compiled(functions, x0, lower, upper, *, radius=0.25, max_iter=40, 
     CasADi's virtual machine): use :func:`minimize`.
     """
     module = _kernel()
+    if module is None or _KERNEL.get("loop_failed"):
+        return None
     x0 = np.atleast_2d(np.asarray(x0, dtype=float))
     natives = [functions.native(name, len(x0)) for name in ("F", "G", "H")]
-    if module is None or any(n is None for n in natives):
+    if any(n is None for n in natives):
         return None
     (f_fn, f_buf, f_in, f_out), (g_fn, g_buf, g_in, g_out), (h_fn, h_buf, h_in, h_out) = natives
     lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
-    x, fun, counts = module.minimize_sr1_many(
-        f_fn, f_buf, f_in, f_out[0], g_fn, g_buf, g_in, g_out[0], g_out[1],
-        h_fn, h_buf, h_in, h_out[0], h_out[1], h_out[2], x0, lower, upper, float(radius),
-        int(max_iter), float(tol), float(min_radius), *_faces(x0.shape[1]))
+    try:
+        x, fun, counts = module.minimize_sr1_many(
+            f_fn, f_buf, f_in, f_out[0], g_fn, g_buf, g_in, g_out[0], g_out[1],
+            h_fn, h_buf, h_in, h_out[0], h_out[1], h_out[2], x0, lower, upper, float(radius),
+            int(max_iter), float(tol), float(min_radius), *_faces(x0.shape[1]))
+    except Exception as error:  # noqa: BLE001 - e.g. a numba that cannot type the call
+        _KERNEL["loop_failed"] = True
+        warn_once("newton-loop", f"the compiled Newton loop failed ({type(error).__name__}: "
+                  f"{str(error)[:200]}): the Python loop runs (slower)")
+        return None
     results = []
     for row, value, (nit, status, nfev, nhev) in zip(x, fun, counts):
         status = _STATUS[status]
