@@ -67,7 +67,7 @@ class NlpSolver:
         self.config = config
         self.solver_config = SolverConfig() if solver is None else solver
         self.sizes = GraphSizes() if sizes is None else sizes
-        self.n_solved = self.solver_config.n_solved or 3
+        self.n_solved = self.solver_config.n_solved
         self.lower = np.array(config.z_lower, dtype=float)
         self.upper = np.array(config.z_upper, dtype=float)
         self._solver = solvers.make_solver(self.solver_config)
