@@ -184,6 +184,7 @@ class CFunction:
             self._res[i] = out.ctypes.data
         self._p = None
         self._rows = {}
+        self._native = _NATIVE(ctypes.cast(self._call, ctypes.c_void_p).value)
 
     def bind(self, p: np.ndarray) -> None:
         """Use ``p`` (flat parameters) for every call until the next ``bind``."""
@@ -217,8 +218,7 @@ class CFunction:
         arg, buffers, z, outputs = self._rows[rows][:4]
         if self._p is not None:
             arg[:, 1] = self._p.ctypes.data
-        pointer = _NATIVE(ctypes.cast(self._call, ctypes.c_void_p).value)
-        return pointer, buffers, z, outputs
+        return self._native, buffers, z, outputs
 
     def __call__(self, z) -> list:
         self._z[:] = z
