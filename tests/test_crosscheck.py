@@ -1,8 +1,8 @@
 """The cross-check and benchmark report shapes (tiny runs; speed is never asserted)."""
-
 import math
 
 import numpy as np
+import pytest
 
 from dsmpepc_nlp.bench.crosscheck import CrosscheckResult, crosscheck
 from dsmpepc_nlp.bench.scenes import demo_cycles
@@ -46,3 +46,15 @@ def test_run_bench_shape():
         assert result[name]["derivative_evaluations"] >= 1
     assert math.isfinite(result["ratio_default_to_sampling"])
     assert isinstance(result["table"], str)
+
+
+def test_bench_ipopt_options_parse_and_are_checked():
+    from dsmpepc_nlp.bench.commands import ipopt_options
+    from dsmpepc_nlp.core.errors import InputError
+
+    assert ipopt_options(["max_soc=4", "nlp_scaling_method=gradient-based"]) == (
+        ("ipopt.max_soc", 4), ("ipopt.nlp_scaling_method", "gradient-based"))
+    assert ipopt_options([]) == ()
+    for bad in (["max_soc"], ["max_soc=x"], ["no_such_option=1"]):
+        with pytest.raises(InputError, match="--ipopt-option"):
+            ipopt_options(bad)

@@ -29,7 +29,7 @@ def _summary(times_s) -> dict:
 
 
 def run_bench(n_cycles: int = 20, seed: int = 0, config: PlannerConfig | None = None,
-              ladder=LADDER, tol: float = 0.01) -> dict:
+              ladder=LADDER, tol: float = 0.01, default: SolverConfig | None = None) -> dict:
     """Time every planner on the crowded demo scene (map + 12 pedestrians).
 
     Parameters
@@ -42,6 +42,9 @@ def run_bench(n_cycles: int = 20, seed: int = 0, config: PlannerConfig | None = 
         Sample counts; per cycle the smallest whose best exact cost is within ``tol`` of the
         default NLP's exact cost is timed (the largest when none is).
     tol : float
+    default : SolverConfig, optional
+        The default planner's solver (IPOPT with its defaults when None; ``dsmpepc bench
+        --ipopt-option`` changes its options).
 
     Returns
     -------
@@ -58,7 +61,8 @@ def run_bench(n_cycles: int = 20, seed: int = 0, config: PlannerConfig | None = 
     cycles = demo_cycles(config, n_cycles, seed)
     result = {"cycles": n_cycles}
     nlp_costs = None
-    for name, solver in (("default", SolverConfig()), ("fast", SolverConfig.fast())):
+    default = SolverConfig() if default is None else default
+    for name, solver in (("default", default), ("fast", SolverConfig.fast())):
         started = time.perf_counter()
         planner = Planner(config, solver)
         build_s = time.perf_counter() - started
