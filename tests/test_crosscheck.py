@@ -44,8 +44,23 @@ def test_run_bench_shape():
     for name in ("default", "fast"):
         assert result[name]["solves_per_plan"] >= 1
         assert result[name]["derivative_evaluations"] >= 1
+        assert {"polish_gain_median", "polish_gain_share"} <= set(result[name])
     assert math.isfinite(result["ratio_default_to_sampling"])
     assert isinstance(result["table"], str)
+
+
+def test_polish_gain_is_what_the_polish_record_beat():
+    from dsmpepc_nlp.bench.timing import polish_gain
+    from dsmpepc_nlp.solve.records import StartRecord
+
+    def record(name, cost):
+        z = np.zeros(4)
+        return StartRecord(name, z, z, "screened", False, 0, 0.0, math.nan, cost)
+
+    starts = (record("warm", -1.0), record("screen-0", -1.5), record("polish", -1.75))
+    assert polish_gain(starts) == pytest.approx(0.25)
+    assert polish_gain(starts[:2]) == 0.0
+    assert math.isnan(polish_gain(()))
 
 
 def test_bench_ipopt_options_parse_and_are_checked():
