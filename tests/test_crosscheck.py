@@ -64,7 +64,7 @@ def test_polish_gain_is_what_the_polish_record_beat():
 
 
 def test_bench_ipopt_options_parse_and_are_checked():
-    from dsmpepc_nlp.bench.commands import ipopt_options
+    from dsmpepc_nlp.bench.params import parse_ipopt_options as ipopt_options
     from dsmpepc_nlp.core.errors import InputError
 
     assert ipopt_options(["max_soc=4", "nlp_scaling_method=gradient-based"]) == (

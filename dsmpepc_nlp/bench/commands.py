@@ -31,7 +31,7 @@ from ..sim.simulate import simulate
 from ..viz import figures
 from . import barn, claims, crowdnav, crowds, sweep
 from .crosscheck import crosscheck
-from .params import parse_params
+from .params import parse_ipopt_options, parse_params
 from .results import parse_indices
 from .summary import fmt, summarised, summary_text  # noqa: F401 (summary_text re-exported)
 from .timing import run_bench
@@ -107,40 +107,9 @@ def add_bench(p) -> None:
                         "to time a setting against the defaults)")
 
 
-def ipopt_options(specs) -> tuple:
-    """``("ipopt.KEY", value)`` pairs from ``KEY=VALUE`` strings (numbers parsed), each
-    checked by building a one-variable IPOPT problem with it."""
-    import casadi as ca
-
-    pairs = []
-    for spec in specs:
-        key, sep, text = spec.partition("=")
-        if not sep or not key.strip() or not text.strip():
-            raise InputError(f"bench --ipopt-option = {spec!r}: must be KEY=VALUE "
-                             "(e.g. max_soc=4)")
-        value = text.strip()
-        for kind in (int, float):
-            try:
-                value = kind(value)
-                break
-            except ValueError:
-                continue
-        pairs.append((f"ipopt.{key.strip()}", value))
-    if pairs:
-        x = ca.MX.sym("x")
-        try:
-            ca.nlpsol("check", "ipopt", {"x": x, "f": x * x},
-                      {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
-                       **dict(pairs)})
-        except RuntimeError as error:
-            raise InputError(f"bench --ipopt-option = {specs!r}: IPOPT rejects it "
-                             f"({str(error).strip().splitlines()[-1][:160]})") from None
-    return tuple(pairs)
-
-
 def run_timing(args) -> int:
     solver_config("nlp")
-    default = SolverConfig(options=ipopt_options(args.ipopt_option))
+    default = SolverConfig(options=parse_ipopt_options(args.ipopt_option))
     say(f"[bench] timing {args.cycles} cycles of the crowded demo scene")
     result = run_bench(n_cycles=args.cycles, seed=args.seed, default=default)
     result["ipopt_options"] = dict(default.options)

@@ -4,7 +4,8 @@
 way: ``part.field`` for any part, a bare name for a ``cost`` field; a switch (such as
 ``ttg_along_nf``) takes 0 or 1. :func:`parse_params` checks the names and numbers,
 :func:`configure` builds the variant with them replaced (the configuration validates the
-values).
+values). ``bench --ipopt-option KEY=VALUE`` names IPOPT options the same way
+(:func:`parse_ipopt_options`).
 """
 
 from __future__ import annotations
@@ -69,3 +70,34 @@ def configure(params: dict, variant: str) -> PlannerConfig:
         changes.setdefault(section, {})[field] = value
     parts = {s: dataclasses.replace(getattr(config, s), **c) for s, c in changes.items()}
     return dataclasses.replace(config, **parts)
+
+
+def parse_ipopt_options(specs) -> tuple:
+    """``("ipopt.KEY", value)`` pairs from ``KEY=VALUE`` strings (numbers parsed), each
+    checked by building a one-variable IPOPT problem with it."""
+    import casadi as ca
+
+    pairs = []
+    for spec in specs:
+        key, sep, text = spec.partition("=")
+        if not sep or not key.strip() or not text.strip():
+            raise InputError(f"bench --ipopt-option = {spec!r}: must be KEY=VALUE "
+                             "(e.g. max_soc=4)")
+        value = text.strip()
+        for kind in (int, float):
+            try:
+                value = kind(value)
+                break
+            except ValueError:
+                continue
+        pairs.append((f"ipopt.{key.strip()}", value))
+    if pairs:
+        x = ca.MX.sym("x")
+        try:
+            ca.nlpsol("check", "ipopt", {"x": x, "f": x * x},
+                      {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
+                       **dict(pairs)})
+        except RuntimeError as error:
+            raise InputError(f"bench --ipopt-option = {specs!r}: IPOPT rejects it "
+                             f"({str(error).strip().splitlines()[-1][:160]})") from None
+    return tuple(pairs)
