@@ -177,6 +177,38 @@ def test_compiled_newton_loop_takes_the_python_loops_steps(tmp_path, monkeypatch
     assert result.nit == python.nit and result.fun == pytest.approx(python.fun, abs=1e-12)
 
 
+@pytest.mark.parametrize("compile_", [True, False], ids=["compiled", "virtual-machine"])
+def test_ipopt_solves_on_threads_are_the_solves_one_after_another(tmp_path, monkeypatch,
+                                                                  compile_):
+    """``solve_threads``: each thread slot has its own nlpsol; every start, cold or warm,
+    gives the same point, cost, iterations and status as when solved alone, in order."""
+    from dsmpepc_nlp.core.config import SolverConfig
+    from dsmpepc_nlp.solve import solvers
+
+    monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
+    if compile_:
+        monkeypatch.delenv("DSMPEPC_NO_COMPILE", raising=False)
+    else:
+        monkeypatch.setenv("DSMPEPC_NO_COMPILE", "1")
+    problem = solvers.Problem(SMALL_CONFIG, SMALL_SIZES, SolverConfig())
+    assert problem.functions.compiled == compile_
+    problem.bind(_small_parameters())
+    starts = _random_z(SMALL_CONFIG, 5, 11)
+    one = solvers.IpoptSolver(SolverConfig(solve_threads=1, max_iter=15))
+    warm = one.solve(problem, starts[0]).lam_x
+    plan = [(z0, warm if i == 2 else None) for i, z0 in enumerate(starts)]
+    alone = one.solve_many(problem, plan)
+    threaded = solvers.IpoptSolver(SolverConfig(solve_threads=3, max_iter=15))
+    for _ in range(2):                       # the slots' nlpsol are reused on the second call
+        together = threaded.solve_many(problem, plan)
+        assert len(together) == len(plan)
+        for a, b in zip(alone, together):
+            assert (a.nit, a.status, a.nfev, a.ngev) == (b.nit, b.status, b.nfev, b.ngev)
+            np.testing.assert_array_equal(a.x, b.x)
+            assert a.fun == b.fun
+    assert {key[2] for key in threaded._built} == {0, 1, 2}
+
+
 def test_no_compile_falls_back_to_the_virtual_machine_with_one_warning(tmp_path, monkeypatch):
     monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
     monkeypatch.setenv("DSMPEPC_NO_COMPILE", "1")

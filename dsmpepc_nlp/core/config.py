@@ -470,6 +470,11 @@ class SolverConfig:
     is multimodal: the NLP only runs from the best of them)."""
     n_solved: int = 3
     """Starts the NLP runs from (the warm start, then the best distinct others)."""
+    solve_threads: int = 2
+    """Threads IPOPT's solves of one plan run on at once, each with its own ``nlpsol``
+    (CasADi releases Python's lock while IPOPT runs); 1 runs them one after another. Every
+    solve is the same whatever the count; only the plan's wall time changes. Two is this
+    project's 2-core reference machine (``newton`` uses numba's threads instead)."""
     distinct: float = 0.05
     """Two starts closer than this share of the box (max norm) count as one."""
     fd_step: float = 1e-6
@@ -507,7 +512,8 @@ class SolverConfig:
             _fail("SolverConfig", "method", self.method, f"one of {', '.join(SOLVER_METHODS)}")
         for name, low in (("max_iter", 1), ("n_spread", 0), ("n_samples", 1), ("seed", 0),
                           ("pair_budget", 1), ("parallel_rows", 1),
-                          ("n_screen", 0), ("n_solved", 1), ("polish_rounds", 0),
+                          ("n_screen", 0), ("n_solved", 1), ("solve_threads", 1),
+                          ("polish_rounds", 0),
                           ("polish_starts", 1)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:

@@ -18,7 +18,9 @@ from __future__ import annotations
 import functools
 import math
 import os
+import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import casadi as ca
@@ -273,21 +275,49 @@ class IpoptSolver:
         self.solver = solver
         self._built = {}
 
-    def _nlpsol(self, problem: Problem, warm: bool):
-        key = (id(problem), warm)
+    def _nlpsol(self, problem: Problem, warm: bool, slot: int = 0):
+        # One nlpsol per thread slot: an nlpsol instance is not for two threads at once.
+        key = (id(problem), warm, slot)
         if key not in self._built:
             self._built[key] = _build_ipopt(problem, self.solver, warm)
         return self._built[key]
 
     def solve_many(self, problem: Problem, starts) -> list:
-        """:meth:`solve` from every ``(z0, lam_x)`` of ``starts``, one after another."""
-        return [self.solve(problem, z0, lam_x) for z0, lam_x in starts]
+        """:meth:`solve` from every ``(z0, lam_x)`` of ``starts``, in their order.
 
-    def solve(self, problem: Problem, z0, lam_x=None) -> SolveResult:
-        """Minimise from ``z0``, warm-started from ``lam_x`` when given."""
+        With ``SolverConfig.solve_threads`` above 1 the solves run at once on that many
+        threads (each thread slot its own ``nlpsol``; CasADi lets go of Python's lock while
+        IPOPT runs); each start is solved exactly as it would be alone.
+        """
+        starts = list(starts)
+        slots = min(self.solver.solve_threads, len(starts))
+        if slots <= 1:
+            return [self.solve(problem, z0, lam_x) for z0, lam_x in starts]
+        for slot in range(slots):     # built here, not in the threads: building is not
+            for warm in {lam_x is not None for _, lam_x in starts}:      # thread-safe
+                self._nlpsol(problem, warm, slot)
+        pending = iter(range(len(starts)))
+        lock = threading.Lock()
+        results = [None] * len(starts)
+
+        def work(slot):
+            while True:
+                with lock:
+                    i = next(pending, None)
+                if i is None:
+                    return
+                results[i] = self.solve(problem, *starts[i], slot=slot)
+
+        for future in [_pool(slots).submit(work, slot) for slot in range(slots)]:
+            future.result()
+        return results
+
+    def solve(self, problem: Problem, z0, lam_x=None, slot: int = 0) -> SolveResult:
+        """Minimise from ``z0``, warm-started from ``lam_x`` when given (``slot``: which
+        thread's ``nlpsol``)."""
         started = time.perf_counter()
         warm = lam_x is not None
-        nlpsol = self._nlpsol(problem, warm)
+        nlpsol = self._nlpsol(problem, warm, slot)
         args = {"x0": z0, "lbx": problem.lower, "ubx": problem.upper}
         if not problem.functions.compiled:
             args["p"] = problem.p
@@ -314,6 +344,21 @@ class IpoptSolver:
         return SolveResult(snap(z, problem.lower, problem.upper), cost, status, usable, nit,
                            elapsed, np.asarray(result["lam_x"], dtype=float).reshape(-1),
                            **counts)
+
+
+_POOLS = {}
+
+
+def _pool(threads: int) -> ThreadPoolExecutor:
+    """This process's pool of at least ``threads`` threads (a forked child makes its own: a
+    parent's pool threads do not exist there)."""
+    key = os.getpid()
+    pool = _POOLS.get(key)
+    if pool is None or pool._max_workers < threads:
+        if pool is not None:
+            pool.shutdown(wait=False)
+        pool = _POOLS[key] = ThreadPoolExecutor(threads, thread_name_prefix="dsmpepc-ipopt")
+    return pool
 
 
 def _build_ipopt(problem: Problem, solver: SolverConfig, warm: bool):
