@@ -1,0 +1,192 @@
+"""IPOPT on the compiled problem: CasADi's ``nlpsol("ipopt")`` whose objective and gradient
+are the compiled functions (no Python inside IPOPT), warm-startable, the solves of one plan on
+parallel threads (each thread its own ``nlpsol``).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+
+import casadi as ca
+import numpy as np
+
+from ..core.config import SolverConfig
+from ..core.errors import InputError
+from .problem import Problem, SolveResult, snap
+
+_QUIET_IPOPT = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes"}
+
+USABLE_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level", "Maximum_Iterations_Exceeded",
+                   "Search_Direction_Becomes_Too_Small", "Maximum_CpuTime_Exceeded",
+                   "Stop_at_Tiny_Step", "Maximum_WallTime_Exceeded")
+"""IPOPT statuses whose iterate is handed back as usable: the planner judges it by its exact
+cost like any other candidate."""
+
+
+def ipopt_options(solver: SolverConfig, warm: bool) -> dict:
+    """``casadi.nlpsol`` options for IPOPT from a SolverConfig (``options`` override)."""
+    options = dict(_QUIET_IPOPT)
+    options.update({"ipopt.max_iter": solver.max_iter, "ipopt.tol": solver.tol,
+                    # The bilinear tables' gradient jumps at cell edges: the dual residual
+                    # stalls near 0.1 when the objective has converged (docs/nlp.md), so
+                    # "acceptable" is judged by the objective's change alone.
+                    "ipopt.acceptable_tol": 1e10, "ipopt.acceptable_iter": 3,
+                    "ipopt.acceptable_dual_inf_tol": 1e10,
+                    "ipopt.acceptable_obj_change_tol": 1e-3,
+                    "ipopt.mu_strategy": "adaptive",
+                    # The probing (Mehrotra) barrier oracle: fewer iterations than the default
+                    # quality function on these 4-variable problems, at an equal or lower exact
+                    # cost (docs/nlp.md, "this pass").
+                    "ipopt.mu_oracle": "probing",
+                    # Second-order corrections repair constraint violations; with bounds
+                    # alone each rejected step paid for them in cost evaluations (46 -> 29
+                    # per solve), and gradient scaling one gradient per solve. Both leave
+                    # every iterate as it was (docs/nlp.md, "Pass 4").
+                    "ipopt.max_soc": 0,
+                    "ipopt.nlp_scaling_method": "none",
+                    # The limited-memory Hessian's augmented system solved as one extended
+                    # system instead of by Sherman-Morrison backsolves: the same steps to
+                    # rounding, ~2 ms less of IPOPT's own time per solve (docs/nlp.md, "Pass 5").
+                    "ipopt.limited_memory_aug_solver": "extended"})
+    if solver.hessian == "quasi-newton":
+        options["ipopt.hessian_approximation"] = "limited-memory"
+    if warm:
+        options.update({"ipopt.warm_start_init_point": "yes",
+                        "ipopt.warm_start_bound_push": 1e-6,
+                        "ipopt.warm_start_mult_bound_push": 1e-6,
+                        "ipopt.mu_init": 1e-4})
+    options.update(dict(solver.options))
+    return options
+
+
+class IpoptSolver:
+    """IPOPT on a :class:`Problem` with its compiled functions; ``nlpsol`` built once per
+    problem (cold and warm variants)."""
+
+    def __init__(self, solver: SolverConfig):
+        self.solver = solver
+        self._built = {}
+
+    def _nlpsol(self, problem: Problem, warm: bool, slot: int = 0):
+        # One nlpsol per thread slot: an nlpsol instance is not for two threads at once.
+        key = (id(problem), warm, slot)
+        if key not in self._built:
+            self._built[key] = _build_ipopt(problem, self.solver, warm)
+        return self._built[key]
+
+    def solve_many(self, problem: Problem, starts) -> list:
+        """:meth:`solve` from every ``(z0, lam_x)`` of ``starts``, in their order.
+
+        With ``SolverConfig.solve_threads`` above 1 the solves run at once on that many
+        threads (each thread slot its own ``nlpsol``; CasADi lets go of Python's lock while
+        IPOPT runs); each start is solved exactly as it would be alone.
+        """
+        starts = list(starts)
+        slots = min(self.solver.solve_threads, len(starts))
+        if slots <= 1:
+            return [self.solve(problem, z0, lam_x) for z0, lam_x in starts]
+        for slot in range(slots):     # built here, not in the threads: building is not
+            for warm in {lam_x is not None for _, lam_x in starts}:      # thread-safe
+                self._nlpsol(problem, warm, slot)
+        pending = iter(range(len(starts)))
+        lock = threading.Lock()
+        results = [None] * len(starts)
+
+        def work(slot):
+            while True:
+                with lock:
+                    i = next(pending, None)
+                if i is None:
+                    return
+                results[i] = self.solve(problem, *starts[i], slot=slot)
+
+        for future in [_pool(slots).submit(work, slot) for slot in range(slots)]:
+            future.result()
+        return results
+
+    def solve(self, problem: Problem, z0, lam_x=None, slot: int = 0) -> SolveResult:
+        """Minimise from ``z0``, warm-started from ``lam_x`` when given (``slot``: which
+        thread's ``nlpsol``)."""
+        started = time.perf_counter()
+        warm = lam_x is not None
+        nlpsol = self._nlpsol(problem, warm, slot)
+        args = {"x0": z0, "lbx": problem.lower, "ubx": problem.upper}
+        if not problem.functions.compiled:
+            args["p"] = problem.p
+        if warm:
+            args["lam_x0"] = lam_x
+        try:
+            result = nlpsol(**args)
+            stats = nlpsol.stats()
+        except RuntimeError as error:
+            message = str(error).strip().splitlines()[-1] if str(error).strip() else "error"
+            return SolveResult(np.asarray(z0, dtype=float), math.nan, f"exception: {message}",
+                               False, 0, time.perf_counter() - started)
+        elapsed = time.perf_counter() - started
+        z = np.asarray(result["x"], dtype=float).reshape(-1)
+        cost = float(result["f"])
+        status = str(stats.get("return_status", "unknown"))
+        nit = int(stats.get("iter_count", 0))
+        counts = dict(nfev=int(stats.get("n_call_nlp_f", 0)),
+                      ngev=int(stats.get("n_call_nlp_grad_f", 0)))
+        if not (np.all(np.isfinite(z)) and math.isfinite(cost)):
+            return SolveResult(np.asarray(z0, dtype=float), math.nan,
+                               f"non-finite result ({status})", False, nit, elapsed, **counts)
+        usable = bool(stats.get("success", False)) or status in USABLE_STATUSES
+        return SolveResult(snap(z, problem.lower, problem.upper), cost, status, usable, nit,
+                           elapsed, np.asarray(result["lam_x"], dtype=float).reshape(-1),
+                           **counts)
+
+
+_POOLS = {}
+
+
+def _pool(threads: int) -> ThreadPoolExecutor:
+    """This process's pool of at least ``threads`` threads (a forked child makes its own: a
+    parent's pool threads do not exist there)."""
+    key = os.getpid()
+    pool = _POOLS.get(key)
+    if pool is None or pool._max_workers < threads:
+        if pool is not None:
+            pool.shutdown(wait=False)
+        pool = _POOLS[key] = ThreadPoolExecutor(threads, thread_name_prefix="dsmpepc-ipopt")
+    return pool
+
+
+def _build_ipopt(problem: Problem, solver: SolverConfig, warm: bool):
+    """``nlpsol`` over the compiled F, with grad_f and hess_lag from the compiled G and H.
+
+    Compiled: the bound functions of z alone (the cycle's parameters are bound once, never
+    passed through IPOPT: converting and copying the tables per solve and per call cost more
+    than the solve). Virtual machine: F, G, H of (z, p) with p passed to ``nlpsol``.
+    """
+    functions = problem.functions.functions
+    bound = problem.functions.compiled
+    z, p = ca.MX.sym("z", 4), ca.MX.sym("p", 0 if bound else problem.n_params)
+    lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", 0, 1)
+
+    def call(name):
+        return functions[name + "b"](z) if bound else functions[name](z, p)
+
+    value, gradient = call("G")
+    options = ipopt_options(solver, warm)
+    options["grad_f"] = ca.Function("grad_f", [z, p], [value, gradient], ["x", "p"],
+                                    ["f", "grad_f_x"])
+    if solver.hessian != "quasi-newton":
+        options["hess_lag"] = ca.Function("hess_lag", [z, p, lam_f, lam_g],
+                                          [ca.triu(lam_f * call("H")[2])],
+                                          ["x", "p", "lam_f", "lam_g"],
+                                          ["triu_hess_gamma_x_x"])
+    nlp = {"x": z, "p": p, "f": call("F")}
+    try:
+        return ca.nlpsol("dsmpepc_warm" if warm else "dsmpepc_cold", "ipopt", nlp, options)
+    except RuntimeError as error:
+        raise InputError(f"SolverConfig.options = {solver.options!r}: CasADi could not build "
+                         f"IPOPT ({str(error).splitlines()[-1]})") from None
+
+
+__all__ = ["IpoptSolver", "USABLE_STATUSES", "ipopt_options"]

@@ -1,0 +1,145 @@
+"""The NLP's problem: the global graph of one configuration, compiled, and a solve's result.
+
+:class:`Problem` is the global cost graph (:mod:`~dsmpepc_nlp.solve.nlp_global`) of one
+configuration and one object size, compiled to C (:mod:`~dsmpepc_nlp.solve.compiled`) and cached
+on disk; a cycle binds its parameters once (:meth:`Problem.bind`) and every evaluation after
+that is one C call. The solvers (:mod:`~dsmpepc_nlp.solve.solvers`) run on it and return a
+typed :class:`SolveResult`.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.config import PlannerConfig, SolverConfig
+from . import compiled, nlp_global
+from .cache import compile_enabled
+
+
+@dataclass(frozen=True)
+class SolveResult:
+    """One solve from one start.
+
+    Attributes
+    ----------
+    x : ndarray, (4,)
+        Where the solver stopped (in the box).
+    fun : float
+        The smooth cost there.
+    status : str
+        The solver's return status.
+    success : bool
+        True when ``x`` is usable (converged, or an iteration limit with a finite iterate).
+    nit : int
+        Iterations.
+    time_s : float
+        Wall time of the solve.
+    lam_x : ndarray or None
+        Bound multipliers (IPOPT; for the next plan's warm start).
+    nfev : int
+        Evaluations of the cost alone (line search, trust-region trials).
+    ngev : int
+        Evaluations with derivatives: IPOPT's gradients; the Newton method's gradient or
+        Hessian calls (with ``quasi-newton`` the first is a difference Hessian, 5 gradients).
+    """
+
+    x: np.ndarray
+    fun: float
+    status: str
+    success: bool
+    nit: int
+    time_s: float
+    lam_x: np.ndarray | None = None
+    nfev: int = 0
+    ngev: int = 0
+
+
+class Problem:
+    """The global graph of one configuration and object size, compiled, parameters bound once.
+
+    Parameters
+    ----------
+    config : PlannerConfig
+    sizes : nlp_global.GraphSizes
+    solver : SolverConfig
+        ``fd_step`` and ``hessian`` (how the compiled Hessian is formed).
+    """
+
+    def __init__(self, config: PlannerConfig, sizes, solver: SolverConfig):
+        started = time.perf_counter()
+        self.config, self.sizes = config, sizes
+        self.lower = np.array(config.z_lower, dtype=float)
+        self.upper = np.array(config.z_upper, dtype=float)
+        cost = nlp_global.flat_cost(config, sizes)
+        self.n_params = cost.size1_in(1)
+        step = solver.fd_step * (self.upper - self.lower)
+        hessian = "exact" if solver.hessian == "exact" else "differences"
+        self.functions = compiled.build(cost, self.n_params, step, (config, sizes, "global"),
+                                        hessian)
+        self.p = np.zeros(self.n_params)
+        self.build_s = time.perf_counter() - started
+
+    def pack(self, cycle) -> np.ndarray:
+        """The flat parameter vector of ``cycle`` for this graph."""
+        return nlp_global.flatten_parameters(nlp_global.pack_parameters(cycle, self.sizes))
+
+    def bind(self, p: np.ndarray) -> None:
+        """Use ``p`` for every evaluation until the next ``bind``."""
+        self.p = np.ascontiguousarray(p, dtype=float)
+        self.functions.bind(self.p)
+
+    def f(self, z) -> float:
+        """The smooth cost at ``z``."""
+        return float(self.functions.call("F", z)[0].item())
+
+    def fg(self, z) -> tuple:
+        """``(f, gradient (4,))`` at ``z`` (a copy)."""
+        value, gradient = self.functions.call("G", z)
+        return float(value.item()), gradient.reshape(-1).copy()
+
+    def fgh(self, z) -> tuple:
+        """``(f, gradient (4,), Hessian (4, 4))`` at ``z`` (copies)."""
+        value, gradient, hessian = self.functions.call("H", z)
+        return float(value.item()), gradient.reshape(-1).copy(), np.array(hessian)
+
+
+def problem(config: PlannerConfig, sizes, solver: SolverConfig) -> Problem:
+    """The :class:`Problem` of a configuration, built (or loaded from the disk cache) once per
+    process and shared by every planner of that configuration. Not for concurrent threads."""
+    # The cache folder's override is part of the key (not cache_dir(): it reads the package
+    # metadata, a millisecond per plan).
+    return _problem(config, sizes, _graph_knobs(solver), compile_enabled(),
+                    os.environ.get("DSMPEPC_CACHE_DIR", ""))
+
+
+@functools.lru_cache(maxsize=32)
+def _problem(config, sizes, knobs, compiling, folder) -> Problem:
+    del compiling, folder                 # part of the key: a change of either builds anew
+    return Problem(config, sizes, knobs)
+
+
+def _graph_knobs(solver: SolverConfig) -> SolverConfig:
+    """Only the fields a Problem depends on, so that solvers differing elsewhere share it."""
+    hessian = "exact" if solver.hessian == "exact" else "differences"
+    return SolverConfig(fd_step=solver.fd_step, hessian=hessian)
+
+
+def snap(z, lower, upper) -> np.ndarray:
+    """z clipped to the box, and put on a bound within 1e-4 of its range of it.
+
+    An interior-point solution of an active bound sits about ``tol`` inside it; on ``v_max``
+    that leaves a robot in collision creeping at ~1e-5 m/s instead of stopping (Lemma 3), so
+    active bounds are made exact.
+    """
+    z = np.clip(z, lower, upper)
+    near = 1e-4 * (upper - lower)
+    z = np.where(z - lower < near, lower, z)
+    return np.where(upper - z < near, upper, z)
+
+
+__all__ = ["Problem", "SolveResult", "problem", "snap"]
