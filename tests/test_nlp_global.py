@@ -5,6 +5,7 @@ import shutil
 import time
 import warnings
 
+import casadi as ca
 import numpy as np
 import pytest
 
@@ -279,3 +280,30 @@ def test_pose_objects_out_of_reach_change_nothing():
     exact = SmoothingConfig.exact()
     np.testing.assert_allclose(_graph(CONFIG, reach, exact, cycle, z)["cost"],
                                _graph(CONFIG, everything, exact, cycle, z)["cost"], atol=1e-12)
+
+
+@pytest.mark.parametrize("smooth", [False, True], ids=["exact", "smooth"])
+def test_pose_mask_skips_only_pairs_that_cannot_matter(smooth):
+    """The per-pose mask skips most pose-object pairs of the crowded demo scene, and the
+    cost and its gradient with it equal those with every pair computed (mask all ones), at
+    exact and at smooth temperatures."""
+    state, world, goal = _demo()
+    cycle = Cycle.prepare(state, world, goal, CONFIG)
+    sizes = g.GraphSizes(max_objects=12)
+    params = g.pack_parameters(cycle, sizes)
+    mask = params["pose_mask"]
+    assert mask.shape == (CONFIG.horizon.n_steps + 1, 12)
+    assert 0.1 < mask.mean() < 0.9                    # some pairs skipped, some computed
+    assert not mask[0].any()                          # nobody within reach at the start
+    smoothing = CONFIG.smoothing if smooth else SmoothingConfig.exact()
+    cost = g.build_cost_function(CONFIG, sizes, smoothing)
+    z_sym = ca.MX.sym("z", 4)
+    inputs = [z_sym, *(ca.MX.sym(n, *s) for n, s in g.parameter_shapes(CONFIG, sizes).items())]
+    value = cost(*inputs)[0]
+    fg = ca.Function("fg", inputs, [value, ca.gradient(value, z_sym)])
+    everywhere = dict(params, pose_mask=np.ones_like(mask))
+    for z in _random_z(CONFIG, 12, 21):
+        masked = [np.array(o) for o in fg(z, *(params[n] for n in g.PARAMETER_NAMES))]
+        full = [np.array(o) for o in fg(z, *(everywhere[n] for n in g.PARAMETER_NAMES))]
+        np.testing.assert_allclose(masked[0], full[0], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(masked[1], full[1], rtol=0, atol=1e-12)

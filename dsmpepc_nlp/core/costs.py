@@ -154,23 +154,21 @@ def collision_probability(distance, inv_ttc, sigma, config: PlannerConfig, smoot
 
 
 def assemble(distance, inv_ttc, sigma, nf, v, omega, heading_err, inv_ttg, inv_ttc_terminal,
-             config: PlannerConfig, smoothing=EXACT, ops=NUMPY):
+             config: PlannerConfig, smoothing=EXACT, ops=NUMPY, kept=None):
     """The cost and its terms from a trajectory's geometry.
 
     Shapes for numpy (one trajectory in CasADi drops the leading ``n``): ``distance``,
     ``inv_ttc``: ``(n, N+1, M)``; ``sigma``: ``(M,)`` (numpy) or ``1 x M``; ``nf``:
     ``(n, N+1, 1)``; ``v``, ``omega``: ``(n, N, 1)``; ``heading_err``, ``inv_ttg``,
-    ``inv_ttc_terminal``: ``(n, 1, 1)``.
+    ``inv_ttc_terminal``: ``(n, 1, 1)``; ``kept`` (optional, ``(n, N+1, 1)``): further
+    objects' product of ``1 - P_c`` per pose (the graph's), multiplied into the survivability.
 
-    Returns
-    -------
-    total, terms, survivability
-        ``total`` ``(n, 1, 1)``, ``terms`` a dict over :data:`TERM_NAMES`, ``survivability``
-        ``(n, N+1, 1)``.
+    Returns ``total`` ``(n, 1, 1)``, ``terms`` (a dict over :data:`TERM_NAMES`) and
+    ``survivability`` ``(n, N+1, 1)``.
     """
     c = config.cost
     pc = collision_probability(distance, inv_ttc, sigma, config, smoothing, ops)
-    survival = ops.cumprod_steps(ops.prod_objects(1.0 - pc))
+    survival = ops.cumprod_steps(ops.prod_objects(1.0 - pc) * (1.0 if kept is None else kept))
     after_start = ops.steps(survival, 1, None)
     final = ops.steps(survival, -1, None)
     # Each term unweighted; the weights and switches are data (PlannerConfig.cost_terms).

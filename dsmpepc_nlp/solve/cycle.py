@@ -128,13 +128,27 @@ class Cycle:
         return self.world.grid
 
 
+def reach_bound(state: RobotState, config: PlannerConfig, predicted, radii) -> np.ndarray:
+    """A lower bound on the gap between any footprint circle and each circle at each pose,
+    whatever z in the box: ``|c_j(k) - p_0| - k dt v_limit - bounding_radius - r_j`` (less a
+    rounding slack), ``(N+1, K)`` from ``predicted`` ``(N+1, K, 2)`` and ``radii`` ``(K,)``.
+
+    At step k the robot's origin is within ``k dt v_limit`` of its start (the law never exceeds
+    ``v_max <= v_limit``). Where the bound is at least ``CULL_SIGMAS * sigma_dynamic``,
+    ``1 - P_c == 1.0`` exactly (see :data:`CULL_SIGMAS`).
+    """
+    robot = config.robot
+    times = np.arange(predicted.shape[0]) * config.horizon.dt
+    spread = np.hypot(predicted[..., 0] - state.x, predicted[..., 1] - state.y)
+    return (spread - (times * robot.v_limit)[:, None] - robot.bounding_radius
+            - np.asarray(radii)[None, :] - _REACH_SLACK)
+
+
 def reach_mask(state: RobotState, config: PlannerConfig, predicted, radii, owner, n_objects):
     """Which objects can matter to the collision probability within the horizon's reach.
 
-    At step k the robot's origin is within ``k dt v_limit`` of its start (the law never exceeds
-    ``v_max <= v_limit``), so a footprint circle's gap to an object circle is at least
-    ``|c_j(k) - p_0| - k dt v_limit - bounding_radius - r_j``. An object whose bound stays at or
-    above ``CULL_SIGMAS * sigma_dynamic`` at every step is left out (see :data:`CULL_SIGMAS`).
+    An object whose :func:`reach_bound` stays at or above ``CULL_SIGMAS * sigma_dynamic`` at
+    every step is left out (see :data:`CULL_SIGMAS`).
 
     Returns
     -------
@@ -143,11 +157,8 @@ def reach_mask(state: RobotState, config: PlannerConfig, predicted, radii, owner
         The smallest bound over the objects left out (inf when none is): an exact smallest
         distance only needs them when nothing kept is nearer.
     """
-    robot = config.robot
-    times = np.arange(predicted.shape[0]) * config.horizon.dt
-    spread = np.hypot(predicted[..., 0] - state.x, predicted[..., 1] - state.y)
-    bound = (spread - (times * robot.v_limit)[:, None] - robot.bounding_radius - radii
-             - _REACH_SLACK).min(axis=0) if len(radii) else np.zeros(0)
+    bound = reach_bound(state, config, predicted, radii).min(axis=0) if len(radii) else \
+        np.zeros(0)
     per_object = np.full(n_objects, np.inf)
     np.minimum.at(per_object, owner, bound)
     reach = per_object < CULL_SIGMAS * config.cost.sigma_dynamic

@@ -37,11 +37,19 @@ import numpy as np
 
 from ..core.config import PlannerConfig
 from ..core.control_law import clamp_measured, step_function, target_pose
-from ..core.costs import TERM_NAMES, assemble, disk_inverse_ttc, heading_error, terminal_inverse_ttg
+from ..core.costs import (
+    TERM_NAMES,
+    assemble,
+    collision_probability,
+    disk_inverse_ttc,
+    heading_error,
+    terminal_inverse_ttg,
+)
 from ..core.errors import InputError
 from ..core.geometry import body_to_world
 from ..core.smooth import CASADI, relu, sigmoid, smax, softmax_objects, softmin_objects
 from .compiled import blocks_finite, flatten_blocks
+from .cycle import CULL_SIGMAS, reach_bound
 
 FAR = 1.0e3
 """Distance reported by padding objects and by a world without a map, m:
@@ -125,7 +133,8 @@ def ray_samples(config: PlannerConfig, sizes: GraphSizes) -> int:
 
 
 PARAMETER_NAMES = ("state", "goal", "obstacle_circles", "obstacle_velocities", "pose_circles",
-                   "pose_velocities", "map_frame", "map_table", "nav_frame", "nav_table")
+                   "pose_velocities", "pose_mask", "map_frame", "map_table", "nav_frame",
+                   "nav_table")
 """Named parameter inputs of :func:`build_cost_function`, in order."""
 
 
@@ -139,6 +148,7 @@ def parameter_shapes(config: PlannerConfig, sizes: GraphSizes) -> dict:
         "obstacle_velocities": (sizes.max_objects, 2),
         "pose_circles": (sizes.k_pose * sizes.circles_per_object, 3),
         "pose_velocities": (sizes.k_pose, 2),
+        "pose_mask": (config.horizon.n_steps + 1, sizes.k_pose),
         "map_frame": (FRAME_COLUMNS, 1),
         "map_table": (cells, 1),
         "nav_frame": (FRAME_COLUMNS, 1),
@@ -334,14 +344,14 @@ def _symbols(config, sizes):
 
 
 def _pose_functions(config, sizes, smoothing):
-    """SX pieces of one pose: where it reads the map table, and its geometry from the reads.
+    """SX pieces of one pose: where it reads the map table, and the map's geometry from the
+    reads.
 
-    ``pose_query(pose, map_frame) -> uv`` (2 x 5C) and ``pose_geometry(pose, speed, time,
-    raw 1 x 5C, map_frame, circles, velocities) -> (distance, inv_ttc)`` (1 x (1+K) each,
-    object 0 the map).
+    ``pose_query(pose, map_frame) -> uv`` (2 x 5C) and ``pose_geometry(pose, speed, raw 1 x 5C,
+    map_frame) -> (distance, inv_ttc)`` (scalars) against the map.
     """
     p = _symbols(config, sizes)
-    pose, speed, time = ca.SX.sym("pose", 3), ca.SX.sym("speed"), ca.SX.sym("time")
+    pose, speed = ca.SX.sym("pose", 3), ca.SX.sym("speed")
     n_c = len(config.robot.footprint)
     raw = ca.SX.sym("raw", 1, len(_STENCIL) * n_c)
     frame = p["map_frame"]
@@ -350,17 +360,30 @@ def _pose_functions(config, sizes, smoothing):
     query = ca.Function("dsmpepc_pose_query", [pose, frame], [uv])
     d, gx, gy = _central(raw + outside, n_c, frame[2])
     static_d, static_inv = _static_geometry(pose, [speed], d, gx, gy, config, smoothing)
-    distance, inverse = static_d[0], static_inv[0]
-    if sizes.k_pose > 0:
-        dyn_d, dyn_inv = _dynamic_geometry(pose, speed, time, p["pose_circles"],
-                                           p["pose_velocities"], config, smoothing, sizes)
-        distance, inverse = ca.horzcat(distance, dyn_d), ca.horzcat(inverse, dyn_inv)
-    if not config.anticipatory_pc:
-        inverse = ca.SX.zeros(1, 1 + sizes.k_pose)
-    geometry = ca.Function("dsmpepc_pose_geometry",
-                           [pose, speed, time, raw, frame, p["pose_circles"],
-                            p["pose_velocities"]], [distance, inverse])
+    inverse = static_inv[0] if config.anticipatory_pc else ca.SX(0)
+    geometry = ca.Function("dsmpepc_pose_geometry", [pose, speed, raw, frame],
+                           [static_d[0], inverse])
     return query, geometry
+
+
+def _object_function(config, sizes, smoothing):
+    """``object_kept(mask, pose, speed, time, circles C_obj x 3, velocity 1 x 2) -> 1 - P_c``
+    of one dynamic object at one pose (``costs.collision_probability``), or exactly 1 without
+    computing anything where ``mask`` is 0 (a CasADi conditional: the object cannot come
+    within ``CULL_SIGMAS`` sigma of that pose, where ``1 - P_c == 1.0`` exactly; see
+    :func:`pose_mask`)."""
+    pose, speed, time = ca.SX.sym("pose", 3), ca.SX.sym("speed"), ca.SX.sym("time")
+    circles = ca.SX.sym("circles", sizes.circles_per_object, 3)
+    velocity = ca.SX.sym("velocity", 1, 2)
+    distance, inverse = _dynamic_geometry(pose, speed, time, circles, velocity, config,
+                                          smoothing, sizes)
+    kept = 1.0 - collision_probability(distance, inverse, config.cost.sigma_dynamic, config,
+                                       smoothing, CASADI)
+    inputs = [pose, speed, time, circles, velocity]
+    near = ca.Function("dsmpepc_object_kept", inputs, [kept])
+    far = ca.Function("dsmpepc_object_far", inputs, [ca.SX(1.0)])
+    # Index 0 (mask 0) is the far branch; any other index runs the default, the computation.
+    return ca.Function.conditional("dsmpepc_object_if", [far], near)
 
 
 def _terminal_functions(config, sizes, smoothing):
@@ -395,7 +418,9 @@ def _nav_points(poses, frame):
 
 def _final_functions(config, sizes, smoothing):
     """``nav_query(poses, nav_frame) -> uv`` and ``assemble(poses, v, omega, goal, nav_frame,
-    nav_raw, distance, inv_ttc, inv_term) -> (cost, *terms)`` through ``costs.assemble``."""
+    nav_raw, distance, inv_ttc, kept, inv_term) -> (cost, *terms)`` through
+    ``costs.assemble`` (``distance``, ``inv_ttc``: the map's, (N+1) x 1; ``kept``: the
+    dynamic objects' product of ``1 - P_c`` per pose, (N+1) x 1)."""
     p = _symbols(config, sizes)
     n_steps = config.horizon.n_steps
     poses = ca.SX.sym("poses", 3, n_steps + 1)
@@ -415,9 +440,8 @@ def _final_functions(config, sizes, smoothing):
     nf = euclid * norm + (1 - euclid) * table_nf
     descent = -ca.vertcat(euclid * dx[-1] / norm[-1] + (1 - euclid) * grad[0],
                           euclid * dy[-1] / norm[-1] + (1 - euclid) * grad[1])
-    distance = ca.SX.sym("distance", n, 1 + sizes.k_pose)
-    inverse = ca.SX.sym("inv_ttc", n, 1 + sizes.k_pose)
-    inv_term = ca.SX.sym("inv_term")
+    distance, inverse = ca.SX.sym("distance", n, 1), ca.SX.sym("inv_ttc", n, 1)
+    kept, inv_term = ca.SX.sym("kept", n, 1), ca.SX.sym("inv_term")
     end = poses[:, -1]
     err = heading_error(end[2], descent[0], descent[1], CASADI, smoothing)
     # The TTG bell is s_ttg = 1e-3 1/s wide: its soft-clip runs at the same share of the bell's
@@ -426,13 +450,12 @@ def _final_functions(config, sizes, smoothing):
         smoothing, inverse_time=smoothing.inverse_time * config.cost.s_ttg / config.cost.s_ttc)
     inv_ttg = terminal_inverse_ttg((end[0], end[1], end[2]), vs[-1], goal, nf[-1], descent,
                                    config, CASADI, ttg_smoothing)
-    sigma = ca.DM([[config.cost.sigma_static] + [config.cost.sigma_dynamic] * sizes.k_pose])
-    sigma = ca.repmat(sigma, n, 1)  # CasADi does not broadcast a row
+    sigma = ca.DM.ones(n, 1) * config.cost.sigma_static
     total, terms, _ = assemble(distance, inverse, sigma, nf.T, vs, omegas, err, inv_ttg,
-                               inv_term, config, smoothing, CASADI)
+                               inv_term, config, smoothing, CASADI, kept=kept)
     final = ca.Function("dsmpepc_assemble",
-                        [poses, vs, omegas, goal, frame, raw, distance, inverse, inv_term],
-                        [total, *(terms[t] for t in TERM_NAMES)])
+                        [poses, vs, omegas, goal, frame, raw, distance, inverse, kept,
+                         inv_term], [total, *(terms[t] for t in TERM_NAMES)])
     return query, final
 
 
@@ -454,22 +477,28 @@ def build_cost_function(config: PlannerConfig, sizes: GraphSizes, smoothing=None
     rollout = ca.Function("dsmpepc_rollout", [z_sx, state_sx],
                           list(_rollout(z_sx, state_sx, config, smoothing)))
     pose_query, pose_geometry = _pose_functions(config, sizes, smoothing)
+    object_kept = _object_function(config, sizes, smoothing)
     ray_query, terminal = _terminal_functions(config, sizes, smoothing)
     nav_query, final = _final_functions(config, sizes, smoothing)
     lookup = table_lookup(sizes)
     z = ca.MX.sym("z", 4)
     p = {name: ca.MX.sym(name, *shape) for name, shape in shapes.items()}
     objects = (p["obstacle_circles"], p["obstacle_velocities"])
-    near = (p["pose_circles"], p["pose_velocities"])
+    c_obj = sizes.circles_per_object
     poses, vs, omegas = rollout(z, p["state"])
-    distances, inverses = [], []
+    distances, inverses, kept = [], [], []
     for k in range(n_steps + 1):
-        pose = poses[:, k]
+        pose, speed = poses[:, k], vs[min(k, n_steps - 1)]
         raw = _lookups(lookup, pose_query(pose, p["map_frame"]), p["map_table"])
-        d, inv = pose_geometry(pose, vs[min(k, n_steps - 1)], k * dt, raw, p["map_frame"],
-                               *near)
+        d, inv = pose_geometry(pose, speed, raw, p["map_frame"])
         distances.append(d)
         inverses.append(inv)
+        product = ca.MX(1.0)
+        for j in range(sizes.k_pose):
+            product = product * object_kept(p["pose_mask"][k, j], pose, speed, k * dt,
+                                             p["pose_circles"][j * c_obj:(j + 1) * c_obj, :],
+                                             p["pose_velocities"][j, :])
+        kept.append(product)
     inv_term = ca.MX(0)
     if config.terminal_cost:
         end = poses[:, -1]
@@ -477,7 +506,7 @@ def build_cost_function(config: PlannerConfig, sizes: GraphSizes, smoothing=None
         inv_term = terminal(end, raw, p["map_frame"], *objects)
     nav_raw = _lookups(lookup, nav_query(poses, p["nav_frame"]), p["nav_table"])
     outputs = final(poses, vs, omegas, p["goal"], p["nav_frame"], nav_raw,
-                    ca.vertcat(*distances), ca.vertcat(*inverses), inv_term)
+                    ca.vertcat(*distances), ca.vertcat(*inverses), ca.vertcat(*kept), inv_term)
     return ca.Function("dsmpepc_cost", [z, *(p[n] for n in PARAMETER_NAMES)], outputs,
                        ["z", *PARAMETER_NAMES], ["cost", *TERM_NAMES])
 
@@ -519,6 +548,26 @@ def pack_obstacles(cycle, sizes: GraphSizes, k_max: int | None = None,
             [cycle.centers[near], cycle.radii[near]])
         velocities[slot] = cycle.velocities[near[0]]
     return circles, velocities
+
+
+def pose_mask(cycle, circles, velocities, circles_per_object: int) -> np.ndarray:
+    """``(N+1, K)``: 1 where the packed object ``j`` may matter at pose ``k``, else 0.
+
+    The objects are the packed ``circles`` (``(K C_obj) x 3``) moving at ``velocities`` as
+    the graph moves them; an object is 0 at a pose where :func:`~.cycle.reach_bound` of
+    every circle of it is at least ``CULL_SIGMAS * sigma_dynamic``: there ``1 - P_c`` is 1.0
+    exactly for every z in the box, so the graph skips it (the same bound that leaves whole
+    objects out of a cycle, per pose; in the crowded demo scene about 70 % of the pose-object
+    pairs).
+    """
+    config = cycle.config
+    n_objects = velocities.shape[0]
+    times = np.arange(config.horizon.n_steps + 1) * config.horizon.dt
+    motion = np.repeat(velocities, circles_per_object, axis=0)
+    predicted = circles[None, :, :2] + times[:, None, None] * motion[None, :, :]
+    bound = reach_bound(cycle.state, config, predicted, circles[:, 2])
+    per_object = bound.reshape(len(times), n_objects, circles_per_object).min(axis=2)
+    return (per_object < CULL_SIGMAS * config.cost.sigma_dynamic).astype(float)
 
 
 def objects_in_reach(cycle) -> int:
@@ -576,6 +625,7 @@ def pack_parameters(cycle, sizes: GraphSizes) -> dict:
         "obstacle_velocities": velocities,
         "pose_circles": pose_circles,
         "pose_velocities": pose_velocities,
+        "pose_mask": pose_mask(cycle, pose_circles, pose_velocities, sizes.circles_per_object),
         "map_frame": map_frame,
         "map_table": map_table,
         "nav_frame": nav_frame,
