@@ -1,6 +1,6 @@
 """The smooth DS-MPEPC cost as one CasADi graph in z, valid wherever the horizon can reach.
 
-This is the graph the built-in solvers minimise (compiled, ``solvers.py``) and the cost to
+This is the graph the built-in solvers minimise (compiled, ``problem.py``) and the cost to
 embed in your own optimiser (:func:`cost_function`): it reads the world through parameters set
 once per cycle, never through models taken along a reference trajectory, so its value is
 honest at every z:
@@ -19,7 +19,8 @@ honest at every z:
   footprint radius apart (:func:`ray_samples`) (first crossing, interpolated between samples);
 - the ``max_objects`` dynamic objects that come nearest to the robot's start over the horizon
   for the terminal time to collision, and at every pose the nearest ``pose_objects`` of those
-  the robot can reach, moved at constant velocity inside the graph.
+  the robot can reach, moved at constant velocity inside the graph, each computed only at the
+  poses it can reach that soon (:func:`pose_mask`, a CasADi conditional per pair).
 
 Everything but the look-ups is SX (compact derivatives); the cost is ``costs.assemble``, the
 formula the exact cost uses. Accuracy and speed, with the commands, are in ``docs/nlp.md``.
@@ -688,4 +689,4 @@ def cost_function(config: PlannerConfig, sizes: GraphSizes | None = None,
 
 __all__ = ["FAR", "GraphSizes", "PARAMETER_NAMES", "build_cost_function",
            "cost_function", "flat_cost", "flatten_parameters", "pack_parameters", "pack_table",
-           "parameter_shapes", "is_finite_parameters", "ray_samples"]
+           "parameter_shapes", "is_finite_parameters", "pose_mask", "ray_samples"]
