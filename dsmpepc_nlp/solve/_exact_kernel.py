@@ -515,7 +515,7 @@ def _rows(first, stride, z, p, fp, sdf, nf, pred, radii, velocities, starts, cul
 @numba.njit(parallel=True, cache=True, fastmath=False, error_model="numpy")
 def exact_costs(z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred, culled_radii,
                 end_centres, end_radii, end_velocities, poses, vs, omegas, targets, survival,
-                out, given):
+                out, given, threads):
     """Roll out and cost every row of ``z`` (n, 4) on every core; results go into the outputs.
 
     With ``given`` the rollouts already in ``poses``, ``vs``, ``omegas`` are costed instead.
@@ -526,7 +526,11 @@ def exact_costs(z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred,
     (terminal time to collision). Outputs: ``poses`` (n, N+1, 3), ``vs``, ``omegas`` (n, N),
     ``targets`` (n, 3), ``survival`` (n, N+1), ``out`` (n, len(OUT)).
     """
-    blocks = min(z.shape[0], 256)
+    # One interleaved block of rows per thread (``threads``: numba's thread count, read by
+    # the caller; read here it would keep the kernel out of the disk cache): the thread pool
+    # hands each thread an equal run of blocks, so equal blocks keep the threads equally busy
+    # (256 blocks left one thread with 256 rows and the other 144 in a 400-row batch).
+    blocks = max(min(z.shape[0], threads), 1)
     for b in prange(blocks):
         _rows(b, blocks, z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred,
               culled_radii, end_centres, end_radii, end_velocities, poses, vs, omegas, targets,
@@ -536,9 +540,9 @@ def exact_costs(z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred,
 @numba.njit(cache=True, fastmath=False, error_model="numpy")
 def exact_costs_serial(z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred,
                        culled_radii, end_centres, end_radii, end_velocities, poses, vs, omegas,
-                       targets, survival, out, given):
-    """:func:`exact_costs` on the calling thread: for small batches, where waking the thread
-    pool costs more than it saves."""
+                       targets, survival, out, given, threads):
+    """:func:`exact_costs` on the calling thread (``threads`` unused: one signature for both):
+    for small batches, where waking the thread pool costs more than it saves."""
     _rows(0, 1, z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred, culled_radii,
           end_centres, end_radii, end_velocities, poses, vs, omegas, targets, survival, out,
           given)

@@ -154,11 +154,10 @@ def _run(module, cycle, z, poses, v, omega, target, survival, out, given, parall
     k = cycle.kernel_arrays
     run = module.exact_costs if len(z) >= parallel_rows else module.exact_costs_serial
     with _LOCK:  # the thread pool takes one launch at a time; threads of one process queue here
-        run(z, cycle.parameters, k["footprint"], k["sdf"], k["nf"],
-                           k["predicted"],
-                           k["radii"], k["velocities"], k["starts"], k["culled_predicted"],
-                           k["culled_radii"], k["end_centers"], k["end_radii"],
-                           k["end_velocities"], poses, v, omega, target, survival, out, given)
+        run(z, cycle.parameters, k["footprint"], k["sdf"], k["nf"], k["predicted"], k["radii"],
+            k["velocities"], k["starts"], k["culled_predicted"], k["culled_radii"],
+            k["end_centers"], k["end_radii"], k["end_velocities"], poses, v, omega, target,
+            survival, out, given, module.numba.get_num_threads())
 
 
 def inside_reach(z: np.ndarray, cycle) -> bool:
