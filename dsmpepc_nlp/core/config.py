@@ -468,10 +468,11 @@ class SolverConfig:
     n_screen: int = 256
     """Low-discrepancy z costed exactly with the named starts before any solve (the landscape
     is multimodal: the NLP only runs from the best of them)."""
-    n_solved: int = 2
-    """Starts the NLP runs from (the warm start, then the best distinct others). Two: one
-    round of ``solve_threads`` on two cores, ~10 ms less per default plan than three, with the
-    same closed-loop outcomes and cross-check targets met (3 before; docs/nlp.md, "Pass 5")."""
+    n_solved: int = 3
+    """Starts the NLP runs from (the warm start, then the best distinct others). Two would be
+    one round on two threads, ~10 ms less per default plan, with the built-in scenarios'
+    outcomes and the cross-check targets kept, but it deadlocked in ~7 more of BARN's 300
+    worlds (docs/nlp.md, "Pass 5"): three."""
     solve_threads: int = 2
     """Threads IPOPT's solves of one plan run on at once, each with its own ``nlpsol``
     (CasADi releases Python's lock while IPOPT runs); 1 runs them one after another. Every
