@@ -59,6 +59,9 @@ class Cycle:
         Path length to the goal on the inflated map (Euclidean without a map).
     footprint : ndarray, (C, 3)
         The robot's body-frame circles ``(cx, cy, radius)``, m.
+    reach_bounds : ndarray, (N+1, K)
+        :func:`reach_bound` of every circle at every pose (what culls objects from the cycle,
+        and per pose from the NLP's graph).
     in_reach : ndarray of bool, (number of objects,)
         Whether each dynamic object can matter to the collision probability within the
         horizon's reach (see :func:`reach_mask`); the others only enter the smallest distance
@@ -87,6 +90,7 @@ class Cycle:
     predicted: np.ndarray
     navigation: object
     footprint: np.ndarray = None
+    reach_bounds: np.ndarray = None
     in_reach: np.ndarray = None
     parameters: np.ndarray = None
     kernel_arrays: dict = None
@@ -101,7 +105,8 @@ class Cycle:
         navigation = world.navigation(goal, config.robot.inflation_radius,
                                       near=(state.x, state.y), reach=config.reach)
         footprint = np.array(config.robot.footprint, dtype=float)
-        in_reach, floor = reach_mask(state, config, predicted, radii, owner, len(world.obstacles))
+        bounds = reach_bound(state, config, predicted, radii)
+        in_reach, floor = reach_mask(bounds, config, owner, len(world.obstacles))
         keep = in_reach[owner]
         kept = np.flatnonzero(in_reach)
         counts = np.bincount(owner[keep], minlength=len(in_reach))[kept]
@@ -120,7 +125,7 @@ class Cycle:
                   for name, a in arrays.items()}
         parameters = parameter_vector(state, goal, config, grid, navigation, floor, CULL_SIGMAS)
         return cls(config, state, goal, world, times, centers, radii, velocities, owner,
-                   predicted, navigation, footprint, in_reach, parameters, arrays)
+                   predicted, navigation, footprint, bounds, in_reach, parameters, arrays)
 
     @property
     def grid(self):
@@ -144,11 +149,11 @@ def reach_bound(state: RobotState, config: PlannerConfig, predicted, radii) -> n
             - np.asarray(radii)[None, :] - _REACH_SLACK)
 
 
-def reach_mask(state: RobotState, config: PlannerConfig, predicted, radii, owner, n_objects):
+def reach_mask(bounds, config: PlannerConfig, owner, n_objects):
     """Which objects can matter to the collision probability within the horizon's reach.
 
-    An object whose :func:`reach_bound` stays at or above ``CULL_SIGMAS * sigma_dynamic`` at
-    every step is left out (see :data:`CULL_SIGMAS`).
+    An object whose :func:`reach_bound` (``bounds``, (N+1, K)) stays at or above
+    ``CULL_SIGMAS * sigma_dynamic`` at every step is left out (see :data:`CULL_SIGMAS`).
 
     Returns
     -------
@@ -157,8 +162,7 @@ def reach_mask(state: RobotState, config: PlannerConfig, predicted, radii, owner
         The smallest bound over the objects left out (inf when none is): an exact smallest
         distance only needs them when nothing kept is nearer.
     """
-    bound = reach_bound(state, config, predicted, radii).min(axis=0) if len(radii) else \
-        np.zeros(0)
+    bound = bounds.min(axis=0) if bounds.shape[1] else np.zeros(0)
     per_object = np.full(n_objects, np.inf)
     np.minimum.at(per_object, owner, bound)
     reach = per_object < CULL_SIGMAS * config.cost.sigma_dynamic

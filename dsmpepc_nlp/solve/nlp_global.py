@@ -50,7 +50,7 @@ from ..core.errors import InputError
 from ..core.geometry import body_to_world
 from ..core.smooth import CASADI, relu, sigmoid, smax, softmax_objects, softmin_objects
 from .compiled import blocks_finite, flatten_blocks
-from .cycle import CULL_SIGMAS, reach_bound
+from .cycle import CULL_SIGMAS
 
 FAR = 1.0e3
 """Distance reported by padding objects and by a world without a map, m:
@@ -517,20 +517,23 @@ def build_cost_function(config: PlannerConfig, sizes: GraphSizes, smoothing=None
 
 def pack_obstacles(cycle, sizes: GraphSizes, k_max: int | None = None,
                    reach_only: bool = False):
-    """``(circles, velocities)`` of the ``k_max`` objects that come nearest to the robot's start.
+    """``(circles, velocities, indices)`` of the ``k_max`` objects that come nearest to the
+    robot's start.
 
-    Returns ``circles`` ((K C_obj), 3: x, y, radius now) and ``velocities`` (K, 2); padding
-    objects sit FAR away. ``k_max`` defaults to ``sizes.max_objects``; with ``reach_only``
-    only the objects the robot can reach within the horizon are candidates
+    Returns ``circles`` ((K C_obj), 3: x, y, radius now), ``velocities`` (K, 2) and
+    ``indices`` ((K C_obj,): each packed circle's index among the cycle's circles, -1 for
+    padding); padding objects sit FAR away. ``k_max`` defaults to ``sizes.max_objects``; with
+    ``reach_only`` only the objects the robot can reach within the horizon are candidates
     (``Cycle.in_reach``: the others change no bit of the collision probability).
     """
     k_max = sizes.max_objects if k_max is None else k_max
     c_obj = sizes.circles_per_object
     circles = np.tile([FAR, FAR, 0.1], (k_max * c_obj, 1))
     velocities = np.zeros((k_max, 2))
+    indices = np.full(k_max * c_obj, -1)
     owner = cycle.owner
     if len(owner) == 0 or k_max == 0:
-        return circles, velocities
+        return circles, velocities, indices
     position = np.array([cycle.state.x, cycle.state.y])
     gap = np.min(np.linalg.norm(cycle.predicted - position, axis=-1), axis=0) - cycle.radii
     n_obj = int(owner.max()) + 1
@@ -548,27 +551,25 @@ def pack_obstacles(cycle, sizes: GraphSizes, k_max: int | None = None,
         circles[slot * c_obj:(slot + 1) * c_obj] = np.column_stack(
             [cycle.centers[near], cycle.radii[near]])
         velocities[slot] = cycle.velocities[near[0]]
-    return circles, velocities
+        indices[slot * c_obj:(slot + 1) * c_obj] = near
+    return circles, velocities, indices
 
 
-def pose_mask(cycle, circles, velocities, circles_per_object: int) -> np.ndarray:
+def pose_mask(cycle, indices, circles_per_object: int) -> np.ndarray:
     """``(N+1, K)``: 1 where the packed object ``j`` may matter at pose ``k``, else 0.
 
-    The objects are the packed ``circles`` (``(K C_obj) x 3``) moving at ``velocities`` as
-    the graph moves them; an object is 0 at a pose where :func:`~.cycle.reach_bound` of
-    every circle of it is at least ``CULL_SIGMAS * sigma_dynamic``: there ``1 - P_c`` is 1.0
-    exactly for every z in the box, so the graph skips it (the same bound that leaves whole
-    objects out of a cycle, per pose; in the crowded demo scene about 70 % of the pose-object
-    pairs).
+    ``indices`` are the packed circles' indices among the cycle's (:func:`pack_obstacles`,
+    -1 for padding); the graph moves them as the cycle predicts them (constant velocity). An
+    object is 0 at a pose where ``Cycle.reach_bounds`` of every circle of it is at least
+    ``CULL_SIGMAS * sigma_dynamic``: there ``1 - P_c`` is 1.0 exactly for every z in the box,
+    so the graph skips it (the bound that leaves whole objects out of a cycle, per pose; in
+    the crowded demo scene about 70 % of the pose-object pairs).
     """
-    config = cycle.config
-    n_objects = velocities.shape[0]
-    times = np.arange(config.horizon.n_steps + 1) * config.horizon.dt
-    motion = np.repeat(velocities, circles_per_object, axis=0)
-    predicted = circles[None, :, :2] + times[:, None, None] * motion[None, :, :]
-    bound = reach_bound(cycle.state, config, predicted, circles[:, 2])
-    per_object = bound.reshape(len(times), n_objects, circles_per_object).min(axis=2)
-    return (per_object < CULL_SIGMAS * config.cost.sigma_dynamic).astype(float)
+    bounds = np.full((cycle.reach_bounds.shape[0], len(indices)), np.inf)
+    real = indices >= 0
+    bounds[:, real] = cycle.reach_bounds[:, indices[real]]
+    per_object = bounds.reshape(len(bounds), -1, circles_per_object).min(axis=2)
+    return (per_object < CULL_SIGMAS * cycle.config.cost.sigma_dynamic).astype(float)
 
 
 def objects_in_reach(cycle) -> int:
@@ -600,8 +601,9 @@ def pack_parameters(cycle, sizes: GraphSizes) -> dict:
     """
     state, config, cells = cycle.state, cycle.config, sizes.table_cells
     v0, omega0 = clamp_measured(state, config)
-    circles, velocities = pack_obstacles(cycle, sizes)
-    pose_circles, pose_velocities = pack_obstacles(cycle, sizes, sizes.k_pose, reach_only=True)
+    circles, velocities, _ = pack_obstacles(cycle, sizes)
+    pose_circles, pose_velocities, pose_indices = pack_obstacles(cycle, sizes, sizes.k_pose,
+                                                                 reach_only=True)
     centre = (state.x, state.y)
     grid = cycle.world.grid
     if grid is None:
@@ -626,7 +628,7 @@ def pack_parameters(cycle, sizes: GraphSizes) -> dict:
         "obstacle_velocities": velocities,
         "pose_circles": pose_circles,
         "pose_velocities": pose_velocities,
-        "pose_mask": pose_mask(cycle, pose_circles, pose_velocities, sizes.circles_per_object),
+        "pose_mask": pose_mask(cycle, pose_indices, sizes.circles_per_object),
         "map_frame": map_frame,
         "map_table": map_table,
         "nav_frame": nav_frame,
