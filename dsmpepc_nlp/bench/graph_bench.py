@@ -52,27 +52,37 @@ def accuracy(config: PlannerConfig, sizes: g.GraphSizes, cycles, n_z: int = 200)
 
 
 def speed(config: PlannerConfig, sizes: g.GraphSizes, cycle, repeats: int = 200) -> dict:
-    """Microseconds per call of F, G, H (VM and compiled) and the build seconds."""
+    """Microseconds per call of F, G, H (VM and compiled) and the build seconds; compiled F
+    and G also with every pose-object pair computed (``c_F_all_pairs_us``: the pose mask all
+    ones, what skipping the pairs that cannot matter saves) and the share of pairs the
+    cycle's mask computes (``pose_pairs_computed``)."""
     started = time.perf_counter()
     cost = g.flat_cost(config, sizes)
     span = np.array(config.z_upper) - np.array(config.z_lower)
     functions = compiled.problem_functions(cost, cost.size1_in(1), 1e-6 * span)
     built = compiled.build(cost, cost.size1_in(1), 1e-6 * span, (config, sizes))
     result = {"build_s": time.perf_counter() - started, "compiled": built.compiled}
-    p = g.flatten_parameters(g.pack_parameters(cycle, sizes))
+    params = g.pack_parameters(cycle, sizes)
+    every = g.flatten_parameters(dict(params, pose_mask=np.ones_like(params["pose_mask"])))
+    result["pose_pairs_computed"] = float(np.mean(params["pose_mask"])) if \
+        params["pose_mask"].size else 0.0
     z = np.array([2.0, 0.1, 0.1, 0.8])
-    for label, runner in (("vm", compiled.Compiled(functions, None)), ("c", built)):
-        if label == "c" and not built.compiled:
-            continue
+    runs = [("vm", compiled.Compiled(functions, None), g.flatten_parameters(params),
+             compiled.NAMES)]
+    if built.compiled:
+        runs += [("c", built, g.flatten_parameters(params), compiled.NAMES),
+                 ("c", built, every, ("F", "G"))]
+    for label, runner, p, names in runs:
+        suffix = "_all_pairs" if p is every else ""
         runner.bind(p)
-        for name in compiled.NAMES:
+        for name in names:
             runner.call(name, z)
             times = []
             for _ in range(repeats):
                 tick = time.perf_counter()
                 runner.call(name, z)
                 times.append(time.perf_counter() - tick)
-            result[f"{label}_{name}_us"] = 1e6 * float(np.median(times))
+            result[f"{label}_{name}{suffix}_us"] = 1e6 * float(np.median(times))
     return result
 
 
