@@ -146,15 +146,12 @@ _POOLS = {}
 
 
 def _pool(threads: int) -> ThreadPoolExecutor:
-    """This process's pool of at least ``threads`` threads (a forked child makes its own: a
-    parent's pool threads do not exist there)."""
-    key = os.getpid()
-    pool = _POOLS.get(key)
-    if pool is None or pool._max_workers < threads:
-        if pool is not None:
-            pool.shutdown(wait=False)
-        pool = _POOLS[key] = ThreadPoolExecutor(threads, thread_name_prefix="dsmpepc-ipopt")
-    return pool
+    """This process's pool of ``threads`` threads, made once (a forked child makes its own:
+    a parent's pool threads do not exist there)."""
+    key = (os.getpid(), threads)
+    if key not in _POOLS:
+        _POOLS[key] = ThreadPoolExecutor(threads, thread_name_prefix="dsmpepc-ipopt")
+    return _POOLS[key]
 
 
 def _build_ipopt(problem: Problem, solver: SolverConfig, warm: bool):
