@@ -492,11 +492,12 @@ class SolverConfig:
     """Object counts the graph is compiled for at every pose; a cycle uses the smallest that
     holds the objects in its reach (the largest when none does). Each is compiled on first
     use and cached."""
-    polish_rounds: int = 5
-    """Rounds of the exact-cost polish after the solves: the best candidate's 80 neighbours
-    on a grid of ``polish_step`` (per variable, share of its range) are costed exactly and the
-    best kept, then the step halves; 0 turns it off. (4 before: a fifth round, at 1/400 of
-    each range, took hall's cross-check from 94.7 to 96.0 % for ~3 ms; docs/nlp.md.)"""
+    polish_rounds: int = 8
+    """Rounds of the exact-cost polish after the solves: the best candidate's 24 neighbours
+    (a step of ``polish_step`` along one variable, or along all four at once; share of each
+    range) are costed exactly and the best kept, then the step halves; 0 turns it off. (Until
+    Pass 6: 5 rounds of all 80 grid neighbours, 2.1 times the trajectories for a cross-check
+    no better; docs/nlp.md.)"""
     polish_step: float = 0.04
     """First step of the polish, as a share of each variable's range."""
     polish_starts: int = 5
