@@ -205,6 +205,33 @@ def test_polish_never_returns_worse_than_the_best_candidate_and_costs_exactly():
                                                                              CONFIG)))
 
 
+@pytest.mark.parametrize("margin, seeds", [(0.0, 1), (0.6, 2), (np.inf, 3)])
+def test_the_polish_leaves_out_candidates_trailing_the_best_by_more_than_its_margin(
+        monkeypatch, margin, seeds):
+    from dsmpepc_nlp.solve import nlp
+    from dsmpepc_nlp.solve.records import StartRecord
+
+    state, world, goal = _demo_cycle()
+    cycle = Cycle.prepare(state, world, goal, CONFIG)
+    solver = NlpSolver(CONFIG, SolverConfig.fast(polish_margin=margin, polish_starts=5,
+                                                 polish_rounds=2, **BUCKETS), SMALL)
+    zs = [[2.0, 0.0, 0.0, 0.5], [3.0, 0.5, -0.5, 0.8], [1.0, -0.5, 0.5, 0.3]]
+    records = [StartRecord(name, np.array(z), np.array(z), "screened", False, 0, 0.0, np.nan,
+                           cost) for name, z, cost in zip("abc", zs, (-1.0, -0.5, 2.0))]
+    batches = []
+    original = nlp.evaluate_batch
+
+    def counted(z, cycle_):
+        batches.append(len(z))
+        return original(z, cycle_)
+
+    monkeypatch.setattr(nlp, "evaluate_batch", counted)
+    polished = solver._polish(records, cycle)
+    assert batches == [seeds * len(nlp._NEIGHBOURS)] * 2
+    if polished is not None and margin == 0.0:
+        assert polished.status == "polished 'a'"
+
+
 @pytest.mark.parametrize("hessian", ["differences", "quasi-newton"])
 def test_both_solvers_lower_the_smooth_cost_from_their_start(hessian):
     from dsmpepc_nlp.solve import solvers

@@ -174,9 +174,11 @@ class NlpSolver:
 
     def _polish(self, records, cycle) -> StartRecord | None:
         """Pattern search on the exact cost around the best distinct candidates (see
-        ``SolverConfig.polish_rounds``; all of them in one exact batch per round): the smooth
-        cost's optimum is near, not at, the exact one (temperatures, bilinear tables). None
-        when it finds nothing better than every candidate."""
+        ``SolverConfig.polish_rounds``; all of them in one exact batch per round): it reaches
+        basins next to the candidates that the solves stopped short of, and the exact optimum
+        where the smooth one is near, not at, it (docs/nlp.md, "Pass 6"). Candidates trailing
+        the best by more than ``SolverConfig.polish_margin`` are not polished. None when it
+        finds nothing better than every candidate."""
         rounds = self.solver_config.polish_rounds
         finite = sorted((r for r in records if math.isfinite(r.exact_cost)),
                         key=lambda r: r.exact_cost)
@@ -185,8 +187,9 @@ class NlpSolver:
         started = time.perf_counter()
         span = self.upper - self.lower
         seeds = []
-        for record in finite:
-            if len(seeds) == self.solver_config.polish_starts:
+        for record in finite:       # cheapest first
+            if (len(seeds) == self.solver_config.polish_starts
+                    or record.exact_cost > finite[0].exact_cost + self.solver_config.polish_margin):
                 break
             if all(np.max(np.abs(record.z - s.z) / span) > self.solver_config.distinct
                    for s in seeds):
