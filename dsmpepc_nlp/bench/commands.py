@@ -221,8 +221,7 @@ def add_crowdnav(p) -> None:
                    default=crowdnav.DURATION,
                    help=f"episode length, s (default {crowdnav.DURATION:g}: CrowdNav's 25 s "
                         "limit times out at 24 s)")
-    # the sampler until the NLP is fast enough for 500 episodes; the summary states the solver
-    _table_options(p, "results/crowdnav", solver_default="sampling")
+    _table_options(p, "results/crowdnav")
 
 
 def run_crowdnav(args) -> dict:

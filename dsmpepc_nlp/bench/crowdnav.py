@@ -275,7 +275,7 @@ class CrowdNavSettings:
     scene: str = "circle"
     setting: str = "invisible"
     humans: int = N_HUMANS
-    solver: str = "sampling"
+    solver: str = "nlp"
     n_samples: int | None = None
     duration: float = DURATION
 
