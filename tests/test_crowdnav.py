@@ -175,9 +175,11 @@ def test_episode_row_has_the_fields_metrics(setting):
 
 
 def test_command_runs_resumes_and_reports_the_split(tmp_path, capsys):
+    assert cn.CrowdNavSettings().solver == "nlp"      # the engine by default, as elsewhere
+    assert cli.build_parser().parse_args(["benchmark", "crowdnav"]).solver == "nlp"
     argv = ["benchmark", "crowdnav", "--episodes", "2", "--variants", "ds-mpepc", "orca",
-            "--samples", "16", "--duration", "2", "--workers", "1", "--robot", "visible",
-            "--out", str(tmp_path / "out"), "--json"]
+            "--solver", "sampling", "--samples", "16", "--duration", "2", "--workers", "1",
+            "--robot", "visible", "--out", str(tmp_path / "out"), "--json"]
     assert cli.main(argv) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["solver"] == "sampling" and summary["setting"] == "visible"

@@ -230,6 +230,43 @@ def test_the_polish_leaves_out_candidates_trailing_the_best_by_more_than_its_mar
     assert batches == [seeds * len(nlp._NEIGHBOURS)] * 2
 
 
+@pytest.mark.parametrize("compile_", [False, True], ids=["numpy", "compiled-kernel"])
+def test_polishing_ahead_on_the_idle_thread_gives_the_same_plan(monkeypatch, compile_):
+    """``polish_ahead``: the walks run while the last solve runs are the walks the final
+    polish would run, so every record of every cycle is the same to the bit, warm starts
+    included; and the idle thread did polish ahead."""
+    from dsmpepc_nlp.bench.scenes import demo_cycles
+    from dsmpepc_nlp.solve import nlp
+
+    if compile_:
+        monkeypatch.delenv("DSMPEPC_NO_COMPILE", raising=False)
+    ahead_rounds = []
+    original = nlp.NlpSolver._polish_walks
+
+    def counted(self, records, cycle, walks, busy):
+        original(self, records, cycle, walks, busy)
+        ahead_rounds.append(sum(w.rounds for w in walks.values()))
+
+    monkeypatch.setattr(nlp.NlpSolver, "_polish_walks", counted)
+    knobs = dict(n_spread=2, max_iter=4, n_screen=16, n_solved=3, solve_threads=2,
+                 polish_rounds=4, polish_margin=np.inf, **BUCKETS)   # solves stopped short
+    ahead = NlpSolver(CONFIG, SolverConfig(**knobs), SMALL)
+    after = NlpSolver(CONFIG, SolverConfig(polish_ahead=False, **knobs), SMALL)
+    polished = 0
+    for state, world, goal in demo_cycles(CONFIG, 4, seed=0, n_samples=64):
+        cycle = Cycle.prepare(state, world, goal, CONFIG)
+        starts = structured_starts(state, goal, CONFIG)
+        one, two = ahead.solve(cycle, starts), after.solve(cycle, starts)
+        polished += one[-1].name == "polish"
+        assert [r.name for r in one] == [r.name for r in two]
+        for a, b in zip(one, two):
+            np.testing.assert_array_equal(a.z, b.z)
+            assert (a.status, a.nit) == (b.status, b.nit)
+            assert a.exact_cost == b.exact_cost or np.isnan(a.exact_cost) and np.isnan(
+                b.exact_cost)
+    assert ahead_rounds and max(ahead_rounds) > 0 and polished > 0
+
+
 @pytest.mark.parametrize("hessian", ["differences", "quasi-newton"])
 def test_both_solvers_lower_the_smooth_cost_from_their_start(hessian):
     from dsmpepc_nlp.solve import solvers

@@ -508,6 +508,13 @@ class SolverConfig:
     0.48 (289 plans of hall, t-corridor and the demo scene); at 1.0 every plan of the
     cross-check's cycles and of the demo is the same as with ``inf``, and the demo's plans
     cost 41 % fewer exact trajectories (docs/nlp.md, "Pass 6")."""
+    polish_ahead: bool = True
+    """Polish on the thread the solves leave idle: three solves on two threads end with one
+    thread waiting for the last solve, and there it walks from the seeds known so far (the
+    screened starts and the finished solves). The final polish continues those walks whose
+    seed is still a seed. Every walk is the same wherever it runs, so the plan is the same
+    either way (held by a test); only the wall time changes. IPOPT only (the fast method's
+    solves run inside one compiled call)."""
     trust_radius: float = 0.25
     """Initial trust radius of ``newton``, as a share of each variable's range."""
     soft_turn: float = 0.6
@@ -535,6 +542,8 @@ class SolverConfig:
                                 "trust_radius": dict(low=0.0, low_open=True, high=1.0),
                                 "soft_turn": dict(low=0.0), "hard_turn": dict(low=0.0),
                                 "turn_distance": positive})
+        if not isinstance(self.polish_ahead, bool):
+            _fail("SolverConfig", "polish_ahead", self.polish_ahead, "True or False")
         hessians = ("differences", "exact", "quasi-newton")
         if self.hessian not in hessians:
             _fail("SolverConfig", "hessian", self.hessian, " or ".join(map(repr, hessians)))

@@ -78,12 +78,18 @@ class IpoptSolver:
             self._built[key] = _build_ipopt(problem, self.solver, warm)
         return self._built[key]
 
-    def solve_many(self, problem: Problem, starts) -> list:
+    def solve_many(self, problem: Problem, starts, idle=None) -> list:
         """:meth:`solve` from every ``(z0, lam_x)`` of ``starts``, in their order.
 
         With ``SolverConfig.solve_threads`` above 1 the solves run at once on that many
         threads (each thread slot its own ``nlpsol``; CasADi lets go of Python's lock while
         IPOPT runs); each start is solved exactly as it would be alone.
+
+        ``idle(done, busy)``, when given, is called on a thread that has no start left while
+        another still solves (three solves on two threads leave one idle for the last):
+        ``done`` maps the index of every finished start to its result, and ``busy()`` says
+        whether a solve still runs. At most one thread runs it at a time, and this returns
+        after it has. The multistart polishes ahead there (:mod:`.nlp`).
         """
         starts = list(starts)
         slots = min(self.solver.solve_threads, len(starts))
@@ -93,16 +99,33 @@ class IpoptSolver:
             for warm in {lam_x is not None for _, lam_x in starts}:      # thread-safe
                 self._nlpsol(problem, warm, slot)
         pending = iter(range(len(starts)))
-        lock = threading.Lock()
+        lock, idle_lock = threading.Lock(), threading.Lock()
         results = [None] * len(starts)
+        running = [0]
+
+        def busy():
+            with lock:
+                return running[0] > 0
 
         def work(slot):
             while True:
                 with lock:
                     i = next(pending, None)
+                    running[0] += i is not None
                 if i is None:
-                    return
-                results[i] = self.solve(problem, *starts[i], slot=slot)
+                    break
+                try:
+                    results[i] = self.solve(problem, *starts[i], slot=slot)
+                finally:
+                    with lock:
+                        running[0] -= 1
+            if idle is not None and busy() and idle_lock.acquire(blocking=False):
+                try:
+                    with lock:
+                        done = {i: r for i, r in enumerate(results) if r is not None}
+                    idle(done, busy)
+                finally:
+                    idle_lock.release()
 
         for future in [_pool(slots).submit(work, slot) for slot in range(slots)]:
             future.result()

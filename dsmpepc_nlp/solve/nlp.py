@@ -37,6 +37,18 @@ __all__ = ["NlpSolver", "pack_parameters", "GraphSizes", "PARAMETER_NAMES",
            "parameter_shapes"]
 
 
+@dataclasses.dataclass
+class _Walk:
+    """One pattern search of the polish: from ``seed``, at ``z`` of exact ``cost`` after
+    ``rounds`` rounds, next ``step`` (per variable)."""
+
+    seed: StartRecord
+    z: np.ndarray
+    cost: float
+    step: np.ndarray
+    rounds: int = 0
+
+
 class NlpSolver:
     """Multi-start NLP over z for one configuration; built once, solved every cycle.
 
@@ -151,40 +163,56 @@ class NlpSolver:
         pack_s = time.perf_counter() - packed
         best_cost, best_lam = math.inf, None
         chosen = self._choose(named, costs)
-        for i, result in zip(chosen, self._run(problem, [named[i] for i in chosen])):
+        walks = {}
+        idle = None
+        if self.solver_config.polish_ahead:
+            def idle(done, busy):
+                ahead = list(records)
+                for index, result in done.items():
+                    ahead[chosen[index]] = self._solved_record(named[chosen[index]], result)
+                self._verdicts(ahead, cycle)
+                self._polish_walks(ahead, cycle, walks, busy)
+        for i, result in zip(chosen, self._run(problem, [named[i] for i in chosen], idle)):
             name, z0 = named[i]
             self.last_stats.append({"name": name, "iter_count": result.nit,
                                     "nfev": result.nfev, "ngev": result.ngev,
                                     "t_wall_total": result.time_s, "pack_s": pack_s,
                                     "pose_objects": problem.sizes.k_pose})
-            records[i] = StartRecord(name, z0, result.x, result.status, result.success,
-                                     result.nit, result.time_s, result.fun)
+            records[i] = self._solved_record(named[i], result)
             if result.success and result.lam_x is not None and result.fun < best_cost:
                 best_cost, best_lam = result.fun, result.lam_x
         if best_lam is not None:
             self._lam_x = best_lam
+        self._verdicts(records, cycle)
+        polished = self._polish(records, cycle, walks)
+        return records + ([polished] if polished is not None else [])
+
+    @staticmethod
+    def _solved_record(start, result) -> StartRecord:
+        """The record of a solve from ``start`` (name, z0), its exact cost not yet known."""
+        name, z0 = start
+        return StartRecord(name, z0, result.x, result.status, result.success, result.nit,
+                           result.time_s, result.fun)
+
+    @staticmethod
+    def _verdicts(records, cycle) -> None:
+        """Cost the solved records exactly, in place (one exact batch; every row is costed
+        as it would be alone, so the polish ahead and the final verdict agree to the bit)."""
         solved = [i for i, r in enumerate(records) if r.status != "screened"
-                  and np.all(np.isfinite(r.z))]
+                  and math.isnan(r.exact_cost) and np.all(np.isfinite(r.z))]
         if solved:
             exact = evaluate_batch(np.array([records[i].z for i in solved]), cycle).costs.total
             for i, cost in zip(solved, exact):
                 records[i] = dataclasses.replace(records[i], exact_cost=float(cost))
-        polished = self._polish(records, cycle)
-        return records + ([polished] if polished is not None else [])
 
-    def _polish(self, records, cycle) -> StartRecord | None:
-        """Pattern search on the exact cost around the best distinct candidates (see
-        ``SolverConfig.polish_rounds``; all of them in one exact batch per round): it reaches
-        basins next to the candidates that the solves stopped short of, and the exact optimum
-        where the smooth one is near, not at, it (docs/nlp.md, "Pass 6"). Candidates trailing
-        the best by more than ``SolverConfig.polish_margin`` are not polished. None when it
-        finds nothing better than every candidate."""
-        rounds = self.solver_config.polish_rounds
+    def _seeds(self, records) -> tuple:
+        """``(seeds, best)``: the best distinct candidates the polish starts from, cheapest
+        first (at most ``polish_starts``, none trailing the best by more than
+        ``polish_margin``), and the best exact cost of all."""
         finite = sorted((r for r in records if math.isfinite(r.exact_cost)),
                         key=lambda r: r.exact_cost)
-        if rounds == 0 or not finite:
-            return None
-        started = time.perf_counter()
+        if not finite:
+            return [], math.inf
         span = self.upper - self.lower
         seeds = []
         for record in finite:       # cheapest first
@@ -194,28 +222,75 @@ class NlpSolver:
             if all(np.max(np.abs(record.z - s.z) / span) > self.solver_config.distinct
                    for s in seeds):
                 seeds.append(record)
-        z = np.array([r.z for r in seeds])
-        cost = np.array([r.exact_cost for r in seeds])
-        step = self.solver_config.polish_step * span
-        for _ in range(rounds):
-            trial = np.clip(z[:, None, :] + _NEIGHBOURS * step, self.lower, self.upper)
-            costs = evaluate_batch(trial.reshape(-1, 4), cycle).costs.total
-            costs = np.where(np.isfinite(costs), costs, np.inf).reshape(len(z), -1)
-            best = np.argmin(costs, axis=1)
-            better = costs[np.arange(len(z)), best] < cost
-            z[better] = trial[better, best[better]]
-            cost[better] = costs[better, best[better]]
-            step = step / 2
-        winner = int(np.argmin(cost))
-        if not cost[winner] < finite[0].exact_cost:
-            return None
-        origin = seeds[winner]
-        return StartRecord("polish", origin.z, z[winner], f"polished '{origin.name}'",
-                           any(r.success for r in records), rounds,
-                           time.perf_counter() - started, math.nan, float(cost[winner]))
+        return seeds, finite[0].exact_cost
 
-    def _run(self, problem, named) -> list:
+    def _walk(self, seed, walks) -> _Walk:
+        """The pattern search from ``seed``: the one already (partly) run ahead, else new."""
+        key = (seed.z.tobytes(), seed.exact_cost)
+        if key not in walks:
+            walks[key] = _Walk(seed, seed.z.copy(), seed.exact_cost,
+                               self.solver_config.polish_step * (self.upper - self.lower))
+        return walks[key]
+
+    def _rounds(self, walks, cycle) -> None:
+        """One round of each walk, all in one exact batch: the 24 neighbours at its step,
+        the best kept if better, the step halved."""
+        z = np.array([w.z for w in walks])
+        step = np.array([w.step for w in walks])
+        trial = np.clip(z[:, None, :] + _NEIGHBOURS * step[:, None, :], self.lower, self.upper)
+        costs = evaluate_batch(trial.reshape(-1, 4), cycle).costs.total
+        costs = np.where(np.isfinite(costs), costs, np.inf).reshape(len(z), -1)
+        for walk, row, trials in zip(walks, costs, trial):
+            best = int(np.argmin(row))
+            if row[best] < walk.cost:
+                walk.z, walk.cost = trials[best], float(row[best])
+            walk.step = walk.step / 2
+            walk.rounds += 1
+
+    def _polish_walks(self, records, cycle, walks, busy) -> None:
+        """Polish ahead (on a thread the solves left idle): walk from each seed of
+        ``records`` (the screened starts and the solves finished so far) one after another,
+        a round at a time, while ``busy()``. Walks are kept in ``walks``; the final polish
+        continues those whose seed is still a seed and drops the others."""
+        seeds, _ = self._seeds(records)
+        for seed in seeds:
+            walk = self._walk(seed, walks)
+            while walk.rounds < self.solver_config.polish_rounds:
+                if not busy():
+                    return
+                self._rounds([walk], cycle)
+
+    def _polish(self, records, cycle, walks=None) -> StartRecord | None:
+        """Pattern search on the exact cost around the best distinct candidates (see
+        ``SolverConfig.polish_rounds``; all of them in one exact batch per round): it reaches
+        basins next to the candidates that the solves stopped short of, and the exact optimum
+        where the smooth one is near, not at, it (docs/nlp.md, "Pass 6"). Candidates trailing
+        the best by more than ``SolverConfig.polish_margin`` are not polished. ``walks``:
+        the walks run ahead (``polish_ahead``), continued where their seed is still a seed;
+        each walk is the same whether run ahead or here. None when it finds nothing better
+        than every candidate."""
+        rounds = self.solver_config.polish_rounds
+        seeds, best = self._seeds(records)
+        if rounds == 0 or not seeds:
+            return None
+        started = time.perf_counter()
+        walks = [self._walk(seed, {} if walks is None else walks) for seed in seeds]
+        while True:
+            active = [w for w in walks if w.rounds < rounds]
+            if not active:
+                break
+            self._rounds(active, cycle)
+        winner = min(walks, key=lambda w: w.cost)       # the first of equals, as argmin
+        if not winner.cost < best:
+            return None
+        origin = winner.seed
+        return StartRecord("polish", origin.z, winner.z, f"polished '{origin.name}'",
+                           any(r.success for r in records), rounds,
+                           time.perf_counter() - started, math.nan, winner.cost)
+
+    def _run(self, problem, named, idle=None) -> list:
         """The solves from every ``(name, z0)`` of ``named`` (the warm start reuses the last
-        plan's multipliers), one :class:`~dsmpepc_nlp.solve.solvers.SolveResult` each."""
+        plan's multipliers), one :class:`~dsmpepc_nlp.solve.solvers.SolveResult` each;
+        ``idle`` as in :meth:`.ipopt.IpoptSolver.solve_many`."""
         return self._solver.solve_many(problem, [(z0, self._lam_x if name == "warm" else None)
-                                                 for name, z0 in named])
+                                                 for name, z0 in named], idle=idle)

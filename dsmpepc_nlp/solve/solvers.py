@@ -62,8 +62,9 @@ class NewtonSolver:
         """Minimise from ``z0``; ``lam_x`` is ignored (no multipliers to warm)."""
         return self.solve_many(problem, [(z0, lam_x)])[0]
 
-    def solve_many(self, problem: Problem, starts) -> list:
-        """Minimise from every ``(z0, lam_x)`` of ``starts`` (``lam_x`` ignored).
+    def solve_many(self, problem: Problem, starts, idle=None) -> list:
+        """Minimise from every ``(z0, lam_x)`` of ``starts`` (``lam_x`` ignored; ``idle`` too:
+        the starts share one compiled call, which leaves no thread idle to lend).
 
         With the quasi-Newton Hessian on compiled functions the starts run at once on
         parallel threads, the loop compiled (:func:`.newton.minimize_compiled`; each
