@@ -512,7 +512,7 @@ def _rows(first, stride, z, p, fp, sdf, nf, pred, radii, velocities, starts, cul
         out[i, 9] = 1.0 if fragile else 0.0
 
 
-@numba.njit(parallel=True, cache=True, fastmath=False, error_model="numpy")
+@numba.njit(parallel=True, cache=True, nogil=True, fastmath=False, error_model="numpy")
 def exact_costs(z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred, culled_radii,
                 end_centres, end_radii, end_velocities, poses, vs, omegas, targets, survival,
                 out, given, threads):
@@ -537,7 +537,7 @@ def exact_costs(z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred,
               survival, out, given)
 
 
-@numba.njit(cache=True, fastmath=False, error_model="numpy")
+@numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
 def exact_costs_serial(z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred,
                        culled_radii, end_centres, end_radii, end_velocities, poses, vs, omegas,
                        targets, survival, out, given, threads):
