@@ -58,10 +58,12 @@ def kernel():
     """
     if _STATE["numpy_only"]:
         return None
+    if not compile_enabled():     # read on every call, so that it holds from when it is set
+        warn_once("exact-compile", "exact cost on the numpy path, slower (compiled evaluator "
+                  "off: DSMPEPC_NO_COMPILE is set)")
+        return None
     if _STATE["kernel"] is not None:
         return _STATE["kernel"]
-    if not compile_enabled():
-        _STATE["failed"] = "DSMPEPC_NO_COMPILE is set"
     if not _STATE["failed"]:
         try:
             _STATE["kernel"] = _import_kernel()
