@@ -230,16 +230,36 @@ def test_the_polish_leaves_out_candidates_trailing_the_best_by_more_than_its_mar
     assert batches == [seeds * len(nlp._NEIGHBOURS)] * 2
 
 
-@pytest.mark.parametrize("compile_", [False, True], ids=["numpy", "compiled-kernel"])
-def test_polishing_ahead_on_the_idle_thread_gives_the_same_plan(monkeypatch, compile_):
+@pytest.mark.parametrize("method, compile_", [("ipopt", False), ("ipopt", True),
+                                             ("newton", True)],
+                         ids=["ipopt-numpy", "ipopt-compiled", "newton-compiled"])
+def test_polishing_ahead_on_the_idle_thread_gives_the_same_plan(monkeypatch, method,
+                                                                compile_):
     """``polish_ahead``: the walks run while the last solve runs are the walks the final
     polish would run, so every record of every cycle is the same to the bit, warm starts
     included; and the idle thread did polish ahead."""
-    from dsmpepc_nlp.bench.scenes import demo_cycles
-    from dsmpepc_nlp.solve import nlp
+    import time
 
-    if compile_:
+    from dsmpepc_nlp.bench.scenes import demo_cycles
+    from dsmpepc_nlp.solve import exact, ipopt, newton, nlp, threads
+
+    if compile_:       # both kernels loaded afresh (an earlier test may have turned them off)
         monkeypatch.delenv("DSMPEPC_NO_COMPILE", raising=False)
+        monkeypatch.setattr(exact, "_STATE", {"kernel": None, "failed": "",
+                                              "numpy_only": False})
+        monkeypatch.setattr(newton, "_KERNEL", {})
+        if exact.kernel() is None or newton._kernel() is None:
+            pytest.skip("numba missing")
+
+    def last_start_late(solve, n, slots, idle=None):   # an idle thread, however fast the solves
+        def late(i, slot):
+            if i == n - 1:
+                time.sleep(0.05)
+            return solve(i, slot)
+        return threads.run_starts(late, n, slots, idle)
+
+    for module in (ipopt, newton):
+        monkeypatch.setattr(module, "run_starts", last_start_late)
     ahead_rounds = []
     original = nlp.NlpSolver._polish_walks
 
@@ -250,8 +270,9 @@ def test_polishing_ahead_on_the_idle_thread_gives_the_same_plan(monkeypatch, com
     monkeypatch.setattr(nlp.NlpSolver, "_polish_walks", counted)
     knobs = dict(n_spread=2, max_iter=4, n_screen=16, n_solved=3, solve_threads=2,
                  polish_rounds=4, polish_margin=np.inf, **BUCKETS)   # solves stopped short
-    ahead = NlpSolver(CONFIG, SolverConfig(**knobs), SMALL)
-    after = NlpSolver(CONFIG, SolverConfig(polish_ahead=False, **knobs), SMALL)
+    make = SolverConfig.fast if method == "newton" else SolverConfig
+    ahead = NlpSolver(CONFIG, make(**knobs), SMALL)
+    after = NlpSolver(CONFIG, make(polish_ahead=False, **knobs), SMALL)
     polished = 0
     for state, world, goal in demo_cycles(CONFIG, 4, seed=0, n_samples=64):
         cycle = Cycle.prepare(state, world, goal, CONFIG)

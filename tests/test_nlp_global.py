@@ -165,7 +165,7 @@ def test_compiled_newton_loop_takes_the_python_loops_steps(tmp_path, monkeypatch
     def broken(*args):
         raise TypeError("cannot type")
 
-    monkeypatch.setattr(newton._kernel(), "minimize_sr1_many", broken)
+    monkeypatch.setattr(newton._kernel(), "minimize_sr1", broken)
     monkeypatch.setitem(newton._KERNEL, "loop_failed", False)
     monkeypatch.setattr(cache, "_WARNED", set())
     with pytest.warns(RuntimeWarning, match="compiled Newton loop failed"):

@@ -474,10 +474,10 @@ class SolverConfig:
     outcomes and the cross-check targets kept, but it deadlocked in ~7 more of BARN's 300
     worlds (docs/nlp.md, "Pass 5"): three."""
     solve_threads: int = 2
-    """Threads IPOPT's solves of one plan run on at once, each with its own ``nlpsol``
-    (CasADi releases Python's lock while IPOPT runs); 1 runs them one after another. Every
-    solve is the same whatever the count; only the plan's wall time changes. Two is this
-    project's 2-core reference machine (``newton`` uses numba's threads instead)."""
+    """Threads the solves of one plan run on at once (IPOPT: each with its own ``nlpsol``,
+    which releases Python's lock while it runs; ``newton``: its compiled loop, which does too);
+    1 runs them one after another. Every solve is the same whatever the count; only the
+    plan's wall time changes. Two is this project's 2-core reference machine."""
     distinct: float = 0.05
     """Two starts closer than this share of the box (max norm) count as one."""
     fd_step: float = 1e-6
@@ -513,8 +513,7 @@ class SolverConfig:
     thread waiting for the last solve, and there it walks from the seeds known so far (the
     screened starts and the finished solves). The final polish continues those walks whose
     seed is still a seed. Every walk is the same wherever it runs, so the plan is the same
-    either way (held by a test); only the wall time changes. IPOPT only (the fast method's
-    solves run inside one compiled call)."""
+    either way (held by a test); only the wall time changes."""
     trust_radius: float = 0.25
     """Initial trust radius of ``newton``, as a share of each variable's range."""
     soft_turn: float = 0.6

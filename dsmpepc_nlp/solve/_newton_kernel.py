@@ -146,7 +146,7 @@ def _finite(fx, g, H):  # pragma: no cover
     return np.isfinite(fx) and np.all(np.isfinite(g)) and np.all(np.isfinite(H))
 
 
-@numba.njit(cache=True, fastmath=False, error_model="numpy")
+@numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
 def minimize_sr1(f_fn, f_buf, f_in, f_out, g_fn, g_buf, g_in, g_out, g_grad,  # pragma: no cover
                  h_fn, h_buf, h_in, h_out, h_grad, h_hess, x0, lower, upper, radius,
                  max_iter, tol, min_radius, at_low, at_up, subset, both, pad):
@@ -216,25 +216,3 @@ def minimize_sr1(f_fn, f_buf, f_in, f_out, g_fn, g_buf, g_in, g_out, g_grad,  # 
             status = 2
             break
     return x, fx, nit, status, nfev, nhev
-
-
-@numba.njit(cache=True, fastmath=False, error_model="numpy", parallel=True)
-def minimize_sr1_many(f_fn, f_buf, f_in, f_out, g_fn, g_buf, g_in, g_out,  # pragma: no cover
-                      g_grad, h_fn, h_buf, h_in, h_out, h_grad, h_hess, x0, lower, upper, radius,
-                      max_iter, tol, min_radius, at_low, at_up, subset, both, pad):
-    """:func:`minimize_sr1` from every row of ``x0`` at once, one thread per start: each
-    start has its own row of every buffer (the generated functions keep no state of their
-    own: the bound parameters are only read)."""
-    n_starts, n = x0.shape
-    x = np.empty((n_starts, n))
-    fun = np.empty(n_starts)
-    counts = np.empty((n_starts, 4), dtype=np.int64)
-    for s in numba.prange(n_starts):
-        xs, fs, nit, status, nfev, nhev = minimize_sr1(
-            f_fn, f_buf[s], f_in[s], f_out[s], g_fn, g_buf[s], g_in[s], g_out[s], g_grad[s],
-            h_fn, h_buf[s], h_in[s], h_out[s], h_grad[s], h_hess[s], x0[s], lower, upper,
-            radius, max_iter, tol, min_radius, at_low, at_up, subset, both, pad)
-        x[s] = xs
-        fun[s] = fs
-        counts[s, 0], counts[s, 1], counts[s, 2], counts[s, 3] = nit, status, nfev, nhev
-    return x, fun, counts

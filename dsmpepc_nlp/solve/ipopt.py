@@ -6,10 +6,7 @@ parallel threads (each thread its own ``nlpsol``).
 from __future__ import annotations
 
 import math
-import os
-import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
 
 import casadi as ca
 import numpy as np
@@ -17,6 +14,7 @@ import numpy as np
 from ..core.config import SolverConfig
 from ..core.errors import InputError
 from .problem import Problem, SolveResult, snap
+from .threads import run_starts
 
 _QUIET_IPOPT = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes"}
 
@@ -85,11 +83,8 @@ class IpoptSolver:
         threads (each thread slot its own ``nlpsol``; CasADi lets go of Python's lock while
         IPOPT runs); each start is solved exactly as it would be alone.
 
-        ``idle(done, busy)``, when given, is called on a thread that has no start left while
-        another still solves (three solves on two threads leave one idle for the last):
-        ``done`` maps the index of every finished start to its result, and ``busy()`` says
-        whether a solve still runs. At most one thread runs it at a time, and this returns
-        after it has. The multistart polishes ahead there (:mod:`.nlp`).
+        ``idle``: work for a thread left without a start while another solves
+        (:func:`.threads.run_starts`).
         """
         starts = list(starts)
         slots = min(self.solver.solve_threads, len(starts))
@@ -98,38 +93,8 @@ class IpoptSolver:
         for slot in range(slots):     # built here, not in the threads: building is not
             for warm in {lam_x is not None for _, lam_x in starts}:      # thread-safe
                 self._nlpsol(problem, warm, slot)
-        pending = iter(range(len(starts)))
-        lock, idle_lock = threading.Lock(), threading.Lock()
-        results = [None] * len(starts)
-        running = [0]
-
-        def busy():
-            with lock:
-                return running[0] > 0
-
-        def work(slot):
-            while True:
-                with lock:
-                    i = next(pending, None)
-                    running[0] += i is not None
-                if i is None:
-                    break
-                try:
-                    results[i] = self.solve(problem, *starts[i], slot=slot)
-                finally:
-                    with lock:
-                        running[0] -= 1
-            if idle is not None and busy() and idle_lock.acquire(blocking=False):
-                try:
-                    with lock:
-                        done = {i: r for i, r in enumerate(results) if r is not None}
-                    idle(done, busy)
-                finally:
-                    idle_lock.release()
-
-        for future in [_pool(slots).submit(work, slot) for slot in range(slots)]:
-            future.result()
-        return results
+        return run_starts(lambda i, slot: self.solve(problem, *starts[i], slot=slot),
+                          len(starts), slots, idle)
 
     def solve(self, problem: Problem, z0, lam_x=None, slot: int = 0) -> SolveResult:
         """Minimise from ``z0``, warm-started from ``lam_x`` when given (``slot``: which
@@ -163,18 +128,6 @@ class IpoptSolver:
         return SolveResult(snap(z, problem.lower, problem.upper), cost, status, usable, nit,
                            elapsed, np.asarray(result["lam_x"], dtype=float).reshape(-1),
                            **counts)
-
-
-_POOLS = {}
-
-
-def _pool(threads: int) -> ThreadPoolExecutor:
-    """This process's pool of ``threads`` threads, made once (a forked child makes its own:
-    a parent's pool threads do not exist there)."""
-    key = (os.getpid(), threads)
-    if key not in _POOLS:
-        _POOLS[key] = ThreadPoolExecutor(threads, thread_name_prefix="dsmpepc-ipopt")
-    return _POOLS[key]
 
 
 def _build_ipopt(problem: Problem, solver: SolverConfig, warm: bool):

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .cache import cache_dir, compile_enabled, warn_once
+from .threads import run_starts
 
 _FACES = {}
 _KERNEL = {}
@@ -65,19 +66,21 @@ def box_qp(g, H, lower, upper) -> np.ndarray:
 
 
 def _kernel():
-    """The compiled box QP module, or None (numba missing or compilation off)."""
+    """The compiled box QP module, or None (numba missing or compilation off; the switch
+    is read on every call, so that it holds from when it is set)."""
+    if not compile_enabled():
+        return None
     if "module" not in _KERNEL:
         _KERNEL["module"] = None
-        if compile_enabled():
-            from .exact import import_numba_module
+        from .exact import import_numba_module
 
-            source = Path(__file__).with_name("_newton_kernel.py").read_bytes()
-            folder = cache_dir("numba") / hashlib.sha1(source).hexdigest()[:16]
-            try:
-                folder.mkdir(parents=True, exist_ok=True)
-                _KERNEL["module"] = import_numba_module("._newton_kernel", folder)
-            except (ImportError, OSError):
-                pass
+        source = Path(__file__).with_name("_newton_kernel.py").read_bytes()
+        folder = cache_dir("numba") / hashlib.sha1(source).hexdigest()[:16]
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            _KERNEL["module"] = import_numba_module("._newton_kernel", folder)
+        except (ImportError, OSError):
+            pass
     return _KERNEL["module"]
 
 
@@ -216,16 +219,17 @@ _STATUS = ("converged", "max_iter", "small_radius", "non-finite")
 
 
 def minimize_compiled(functions, x0, lower, upper, *, radius=0.25, max_iter=40, tol=1e-5,
-                      min_radius=1e-4) -> list | None:
+                      min_radius=1e-4, threads: int = 2, idle=None) -> list | None:
     """:func:`minimize` with ``solvers.sr1``'s quasi-Newton Hessian from every row of ``x0``
-    (k, n), the whole loop compiled and the starts on parallel threads.
+    (k, n), the whole loop compiled and the starts on ``threads`` parallel threads.
 
     ``functions`` is a :class:`~dsmpepc_nlp.solve.compiled.Compiled` with its parameters
-    bound; the loop (:func:`._newton_kernel.minimize_sr1`, numba) calls the generated F, G
-    and H itself: no Python per evaluation. Each start takes the same steps as the Python
-    loop (a test holds them together). Returns one :class:`NewtonResult` per start, or None
-    when the loop cannot run compiled (no numba, compilation off, or the functions on
-    CasADi's virtual machine): use :func:`minimize`.
+    bound; the loop (:func:`._newton_kernel.minimize_sr1`, numba, letting go of Python's lock)
+    calls the generated F, G and H itself: no Python per evaluation. Each start has its own
+    buffers and takes the same steps as the Python loop (a test holds them together); the
+    starts are shared out by :func:`.threads.run_starts` (``idle`` as there). Returns one
+    :class:`NewtonResult` per start, or None when the loop cannot run compiled (no numba,
+    compilation off, or the functions on CasADi's virtual machine): use :func:`minimize`.
     """
     module = _kernel()
     if module is None or _KERNEL.get("loop_failed"):
@@ -236,22 +240,35 @@ def minimize_compiled(functions, x0, lower, upper, *, radius=0.25, max_iter=40, 
         return None
     (f_fn, f_buf, f_in, f_out), (g_fn, g_buf, g_in, g_out), (h_fn, h_buf, h_in, h_out) = natives
     lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
-    try:
-        x, fun, counts = module.minimize_sr1_many(
-            f_fn, f_buf, f_in, f_out[0], g_fn, g_buf, g_in, g_out[0], g_out[1],
-            h_fn, h_buf, h_in, h_out[0], h_out[1], h_out[2], x0, lower, upper, float(radius),
-            int(max_iter), float(tol), float(min_radius), *_faces(x0.shape[1]))
-    except Exception as error:  # noqa: BLE001 - e.g. a numba that cannot type the call
-        _KERNEL["loop_failed"] = True
-        warn_once("newton-loop", f"the compiled Newton loop failed ({type(error).__name__}: "
-                  f"{str(error)[:200]}): the Python loop runs (slower)")
-        return None
-    results = []
-    for row, value, (nit, status, nfev, nhev) in zip(x, fun, counts):
+    faces = _faces(x0.shape[1])
+
+    def solve(s, _slot):
+        try:
+            x, fun, nit, status, nfev, nhev = module.minimize_sr1(
+                f_fn, f_buf[s], f_in[s], f_out[0][s], g_fn, g_buf[s], g_in[s], g_out[0][s],
+                g_out[1][s], h_fn, h_buf[s], h_in[s], h_out[0][s], h_out[1][s], h_out[2][s],
+                x0[s], lower, upper, float(radius), int(max_iter), float(tol),
+                float(min_radius), *faces)
+        except Exception as error:  # noqa: BLE001 - e.g. a numba that cannot type the call
+            raise _LoopFailed(f"{type(error).__name__}: {str(error)[:200]}") from error
         status = _STATUS[status]
-        results.append(NewtonResult(np.array(row), float(value), int(nit), status,
-                                    status == "converged", int(nfev), int(nhev)))
-    return results
+        return NewtonResult(np.array(x), float(fun), int(nit), status, status == "converged",
+                            int(nfev), int(nhev))
+
+    slots = max(1, min(int(threads), len(x0)))
+    try:
+        if slots == 1:
+            return [solve(s, 0) for s in range(len(x0))]
+        return run_starts(solve, len(x0), slots, idle)
+    except _LoopFailed as failure:
+        _KERNEL["loop_failed"] = True
+        warn_once("newton-loop", f"the compiled Newton loop failed ({failure}): the Python "
+                  "loop runs (slower)")
+        return None
+
+
+class _LoopFailed(RuntimeError):
+    """The compiled loop itself failed (not the ``idle`` work it lent a thread to)."""
 
 
 __all__ = ["NewtonResult", "box_qp", "box_qp_reference", "minimize", "minimize_compiled"]

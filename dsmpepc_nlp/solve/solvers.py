@@ -63,21 +63,27 @@ class NewtonSolver:
         return self.solve_many(problem, [(z0, lam_x)])[0]
 
     def solve_many(self, problem: Problem, starts, idle=None) -> list:
-        """Minimise from every ``(z0, lam_x)`` of ``starts`` (``lam_x`` ignored; ``idle`` too:
-        the starts share one compiled call, which leaves no thread idle to lend).
+        """Minimise from every ``(z0, lam_x)`` of ``starts`` (``lam_x`` ignored).
 
         With the quasi-Newton Hessian on compiled functions the starts run at once on
-        parallel threads, the loop compiled (:func:`.newton.minimize_compiled`; each
-        result's ``time_s`` is then the batch's wall time); else one after another in the
-        Python loop, its definition.
+        ``SolverConfig.solve_threads`` threads, the loop compiled
+        (:func:`.newton.minimize_compiled`; each result's ``time_s`` is then the batch's wall
+        time; ``idle`` as in :func:`.threads.run_starts`); else one after another in the
+        Python loop, its definition (no thread is left idle there: ``idle`` is not called).
         """
         started = time.perf_counter()
         knobs = dict(radius=self.solver.trust_radius, max_iter=self.solver.max_iter,
                      tol=self.solver.tol)
         z0s = [np.asarray(z0, dtype=float) for z0, _ in starts]
         if self.solver.hessian == "quasi-newton":
+            def lent(done, busy):     # the idle thread sees results as the solver gives them
+                elapsed = time.perf_counter() - started
+                idle({i: self._result(problem, z0s[i], r, elapsed) for i, r in done.items()},
+                     busy)
+
             results = minimize_compiled(problem.functions, np.array(z0s), problem.lower,
-                                        problem.upper, **knobs)
+                                        problem.upper, threads=self.solver.solve_threads,
+                                        idle=None if idle is None else lent, **knobs)
             if results is not None:
                 elapsed = time.perf_counter() - started
                 return [self._result(problem, z0, r, elapsed) for z0, r in zip(z0s, results)]

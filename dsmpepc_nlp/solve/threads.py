@@ -1,0 +1,71 @@
+"""The solves of one plan on parallel threads, and the idle thread they leave.
+
+Both solvers run a plan's starts here (:func:`run_starts`): IPOPT, whose ``nlpsol`` lets go
+of Python's lock while it runs, and the fast method's compiled loop (numba, ``nogil``). Each
+thread takes the next start when it is free. Three starts on two threads end with one thread
+waiting for the last solve; the multistart lends it work (``idle``: the polish ahead, see
+:mod:`.nlp`).
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
+
+_POOLS = {}
+
+
+def pool(threads: int) -> ThreadPoolExecutor:
+    """This process's pool of ``threads`` threads, made once (a forked child makes its own:
+    a parent's pool threads do not exist there)."""
+    key = (os.getpid(), threads)
+    if key not in _POOLS:
+        _POOLS[key] = ThreadPoolExecutor(threads, thread_name_prefix="dsmpepc-solve")
+    return _POOLS[key]
+
+
+def run_starts(solve, n: int, slots: int, idle=None) -> list:
+    """``[solve(i, slot) for i in range(n)]`` on ``slots`` threads, each thread (``slot``)
+    taking the next ``i`` when it is free; in order of ``i``.
+
+    ``idle(done, busy)``, when given, is called on a thread that has no start left while
+    another still solves: ``done`` maps the index of every finished start to its result and
+    ``busy()`` says whether a solve still runs. At most one thread runs it at a time, and
+    this returns after it has. Exceptions of ``solve`` or ``idle`` reach the caller.
+    """
+    pending = iter(range(n))
+    lock, idle_lock = threading.Lock(), threading.Lock()
+    results = [None] * n
+    running = [0]
+
+    def busy():
+        with lock:
+            return running[0] > 0
+
+    def work(slot):
+        while True:
+            with lock:
+                i = next(pending, None)
+                running[0] += i is not None
+            if i is None:
+                break
+            try:
+                results[i] = solve(i, slot)
+            finally:
+                with lock:
+                    running[0] -= 1
+        if idle is not None and busy() and idle_lock.acquire(blocking=False):
+            try:
+                with lock:
+                    done = {i: r for i, r in enumerate(results) if r is not None}
+                idle(done, busy)
+            finally:
+                idle_lock.release()
+
+    for future in [pool(slots).submit(work, slot) for slot in range(slots)]:
+        future.result()
+    return results
+
+
+__all__ = ["pool", "run_starts"]
