@@ -214,16 +214,18 @@ def test_the_polish_leaves_out_candidates_trailing_the_best_by_more_than_its_mar
     state, world, goal = _demo_cycle()
     cycle = Cycle.prepare(state, world, goal, CONFIG)
     solver = NlpSolver(CONFIG, SolverConfig.fast(polish_margin=margin, polish_starts=5,
-                                                 polish_rounds=2, **BUCKETS), SMALL)
+                                                 polish_rounds=2, parallel_rows=7, **BUCKETS),
+                       SMALL)
     zs = [[2.0, 0.0, 0.0, 0.5], [3.0, 0.5, -0.5, 0.8], [1.0, -0.5, 0.5, 0.3]]
     records = [StartRecord(name, np.array(z), np.array(z), "screened", False, 0, 0.0, np.nan,
                            cost) for name, z, cost in zip("abc", zs, (-1.0, -0.5, 2.0))]
     batches = []
     original = nlp.evaluate_batch
 
-    def counted(z, cycle_):
+    def counted(z, cycle_, **options):
         batches.append(len(z))
-        return original(z, cycle_)
+        assert options["parallel_rows"] == 7          # the configuration's, not the default
+        return original(z, cycle_, **options)
 
     monkeypatch.setattr(nlp, "evaluate_batch", counted)
     solver._polish(records, cycle)

@@ -37,6 +37,11 @@ __all__ = ["NlpSolver", "pack_parameters", "GraphSizes", "PARAMETER_NAMES",
            "parameter_shapes"]
 
 
+_ONE_THREAD = 1 << 62
+"""``parallel_rows`` of the exact batches run ahead: on the calling thread, whatever their size
+(the other core is solving)."""
+
+
 @dataclasses.dataclass
 class _Walk:
     """One pattern search of the polish: from ``seed``, at ``z`` of exact ``cost`` after
@@ -154,7 +159,8 @@ class NlpSolver:
         named += [(f"spread-{i}", z) for i, z in enumerate(self.spread)]
         named += [(f"screen-{i}", z) for i, z in enumerate(self.screen)]
         self.last_stats = []
-        costs = evaluate_batch(np.array([z for _, z in named]), cycle).costs.total
+        costs = evaluate_batch(np.array([z for _, z in named]), cycle,
+                               parallel_rows=self.solver_config.parallel_rows).costs.total
         records = [StartRecord(name, z0, z0, "screened", False, 0, 0.0, math.nan,
                                float(costs[i])) for i, (name, z0) in enumerate(named)]
         problem = self.problem(cycle)
@@ -170,7 +176,7 @@ class NlpSolver:
                 ahead = list(records)
                 for index, result in done.items():
                     ahead[chosen[index]] = self._solved_record(named[chosen[index]], result)
-                self._verdicts(ahead, cycle)
+                self._verdicts(ahead, cycle, _ONE_THREAD)
                 self._polish_walks(ahead, cycle, walks, busy)
         for i, result in zip(chosen, self._run(problem, [named[i] for i in chosen], idle)):
             name, z0 = named[i]
@@ -194,14 +200,15 @@ class NlpSolver:
         return StartRecord(name, z0, result.x, result.status, result.success, result.nit,
                            result.time_s, result.fun)
 
-    @staticmethod
-    def _verdicts(records, cycle) -> None:
+    def _verdicts(self, records, cycle, parallel_rows=None) -> None:
         """Cost the solved records exactly, in place (one exact batch; every row is costed
         as it would be alone, so the polish ahead and the final verdict agree to the bit)."""
         solved = [i for i, r in enumerate(records) if r.status != "screened"
                   and math.isnan(r.exact_cost) and np.all(np.isfinite(r.z))]
         if solved:
-            exact = evaluate_batch(np.array([records[i].z for i in solved]), cycle).costs.total
+            exact = evaluate_batch(np.array([records[i].z for i in solved]), cycle,
+                                   parallel_rows=parallel_rows or self.solver_config.parallel_rows
+                                   ).costs.total
             for i, cost in zip(solved, exact):
                 records[i] = dataclasses.replace(records[i], exact_cost=float(cost))
 
@@ -232,13 +239,15 @@ class NlpSolver:
                                self.solver_config.polish_step * (self.upper - self.lower))
         return walks[key]
 
-    def _rounds(self, walks, cycle) -> None:
+    def _rounds(self, walks, cycle, parallel_rows=None) -> None:
         """One round of each walk, all in one exact batch: the 24 neighbours at its step,
-        the best kept if better, the step halved."""
+        the best kept if better, the step halved (``parallel_rows``: default the config's)."""
         z = np.array([w.z for w in walks])
         step = np.array([w.step for w in walks])
         trial = np.clip(z[:, None, :] + _NEIGHBOURS * step[:, None, :], self.lower, self.upper)
-        costs = evaluate_batch(trial.reshape(-1, 4), cycle).costs.total
+        costs = evaluate_batch(trial.reshape(-1, 4), cycle,
+                               parallel_rows=parallel_rows or self.solver_config.parallel_rows
+                               ).costs.total
         costs = np.where(np.isfinite(costs), costs, np.inf).reshape(len(z), -1)
         for walk, row, trials in zip(walks, costs, trial):
             best = int(np.argmin(row))
@@ -258,7 +267,7 @@ class NlpSolver:
             while walk.rounds < self.solver_config.polish_rounds:
                 if not busy():
                     return
-                self._rounds([walk], cycle)
+                self._rounds([walk], cycle, _ONE_THREAD)
 
     def _polish(self, records, cycle, walks=None) -> StartRecord | None:
         """Pattern search on the exact cost around the best distinct candidates (see
