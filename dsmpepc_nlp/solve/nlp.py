@@ -233,7 +233,7 @@ class NlpSolver:
 
     def _walk(self, seed, walks) -> _Walk:
         """The pattern search from ``seed``: the one already (partly) run ahead, else new."""
-        key = (seed.z.tobytes(), seed.exact_cost)
+        key = (seed.name, seed.z.tobytes(), seed.exact_cost)
         if key not in walks:
             walks[key] = _Walk(seed, seed.z.copy(), seed.exact_cost,
                                self.solver_config.polish_step * (self.upper - self.lower))
