@@ -65,6 +65,7 @@ def test_variants_differ_only_in_the_two_switches():
         (lambda: SolverConfig(method="bfgs"), "method"),
         (lambda: SolverConfig(n_samples=0), "n_samples"),
         (lambda: SolverConfig(n_solved=0), "n_solved"),
+        (lambda: SolverConfig(polish_ahead="yes"), "polish_ahead"),
     ],
 )
 def test_invalid_values_raise_naming_the_field(make, field):
