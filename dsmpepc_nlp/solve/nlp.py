@@ -37,9 +37,6 @@ __all__ = ["NlpSolver", "pack_parameters", "GraphSizes", "PARAMETER_NAMES",
            "parameter_shapes"]
 
 
-_ONE_THREAD = 1 << 62
-"""``parallel_rows`` of the exact batches run ahead: on the calling thread, whatever their size
-(the other core is solving)."""
 
 
 @dataclasses.dataclass
@@ -91,6 +88,8 @@ class NlpSolver:
         self.n_solved = self.solver_config.n_solved
         self.lower = np.array(config.z_lower, dtype=float)
         self.upper = np.array(config.z_upper, dtype=float)
+        self.span = self.upper - self.lower
+        self._first_step = self.solver_config.polish_step * self.span
         self._solver = solvers.make_solver(self.solver_config)
         self.spread = box_samples(config, self.solver_config.n_spread, self.solver_config.seed)
         self.screen = box_samples(config, self.solver_config.n_screen,
@@ -119,15 +118,13 @@ class NlpSolver:
 
     def _choose(self, named, costs) -> list:
         """Indices to solve from: ``warm`` first, then the best distinct others by exact cost."""
-        span = self.upper - self.lower
         order = [i for i, (name, _) in enumerate(named) if name == "warm"]
         for i in np.argsort(np.where(np.isfinite(costs), costs, np.inf), kind="stable"):
             if len(order) >= self.n_solved:
                 break
             if i in order or not np.isfinite(costs[i]):
                 continue
-            if all(np.max(np.abs(named[i][1] - named[j][1]) / span) > self.solver_config.distinct
-                   for j in order):
+            if all(self._distinct(named[i][1], named[j][1]) for j in order):
                 order.append(int(i))
         return order
 
@@ -159,8 +156,7 @@ class NlpSolver:
         named += [(f"spread-{i}", z) for i, z in enumerate(self.spread)]
         named += [(f"screen-{i}", z) for i, z in enumerate(self.screen)]
         self.last_stats = []
-        costs = evaluate_batch(np.array([z for _, z in named]), cycle,
-                               parallel_rows=self.solver_config.parallel_rows).costs.total
+        costs = self._exact(np.array([z for _, z in named]), cycle)
         records = [StartRecord(name, z0, z0, "screened", False, 0, 0.0, math.nan,
                                float(costs[i])) for i, (name, z0) in enumerate(named)]
         problem = self.problem(cycle)
@@ -176,7 +172,7 @@ class NlpSolver:
                 ahead = list(records)
                 for index, result in done.items():
                     ahead[chosen[index]] = self._solved_record(named[chosen[index]], result)
-                self._verdicts(ahead, cycle, _ONE_THREAD)
+                self._verdicts(ahead, cycle, one_thread=True)
                 self._polish_walks(ahead, cycle, walks, busy)
         for i, result in zip(chosen, self._run(problem, [named[i] for i in chosen], idle)):
             name, z0 = named[i]
@@ -200,15 +196,25 @@ class NlpSolver:
         return StartRecord(name, z0, result.x, result.status, result.success, result.nit,
                            result.time_s, result.fun)
 
-    def _verdicts(self, records, cycle, parallel_rows=None) -> None:
+    def _distinct(self, a, b) -> bool:
+        """True when two z differ by more than ``SolverConfig.distinct`` of the box (max
+        norm): the starts solved from and the polish's seeds are kept that far apart."""
+        return bool(np.max(np.abs(a - b) / self.span) > self.solver_config.distinct)
+
+    def _exact(self, z, cycle, one_thread=False) -> np.ndarray:
+        """Exact total costs of the rows of ``z`` (``SolverConfig.parallel_rows`` decides when
+        a batch uses every core; ``one_thread``: never, for the batches run ahead while the
+        other core solves)."""
+        rows = len(z) + 1 if one_thread else self.solver_config.parallel_rows
+        return evaluate_batch(z, cycle, parallel_rows=rows).costs.total
+
+    def _verdicts(self, records, cycle, one_thread=False) -> None:
         """Cost the solved records exactly, in place (one exact batch; every row is costed
         as it would be alone, so the polish ahead and the final verdict agree to the bit)."""
         solved = [i for i, r in enumerate(records) if r.status != "screened"
                   and math.isnan(r.exact_cost) and np.all(np.isfinite(r.z))]
         if solved:
-            exact = evaluate_batch(np.array([records[i].z for i in solved]), cycle,
-                                   parallel_rows=parallel_rows or self.solver_config.parallel_rows
-                                   ).costs.total
+            exact = self._exact(np.array([records[i].z for i in solved]), cycle, one_thread)
             for i, cost in zip(solved, exact):
                 records[i] = dataclasses.replace(records[i], exact_cost=float(cost))
 
@@ -220,14 +226,12 @@ class NlpSolver:
                         key=lambda r: r.exact_cost)
         if not finite:
             return [], math.inf
-        span = self.upper - self.lower
         seeds = []
         for record in finite:       # cheapest first
             if (len(seeds) == self.solver_config.polish_starts
                     or record.exact_cost > finite[0].exact_cost + self.solver_config.polish_margin):
                 break
-            if all(np.max(np.abs(record.z - s.z) / span) > self.solver_config.distinct
-                   for s in seeds):
+            if all(self._distinct(record.z, s.z) for s in seeds):
                 seeds.append(record)
         return seeds, finite[0].exact_cost
 
@@ -235,19 +239,16 @@ class NlpSolver:
         """The pattern search from ``seed``: the one already (partly) run ahead, else new."""
         key = (seed.name, seed.z.tobytes(), seed.exact_cost)
         if key not in walks:
-            walks[key] = _Walk(seed, seed.z.copy(), seed.exact_cost,
-                               self.solver_config.polish_step * (self.upper - self.lower))
+            walks[key] = _Walk(seed, seed.z.copy(), seed.exact_cost, self._first_step)
         return walks[key]
 
-    def _rounds(self, walks, cycle, parallel_rows=None) -> None:
+    def _rounds(self, walks, cycle, one_thread=False) -> None:
         """One round of each walk, all in one exact batch: the 24 neighbours at its step,
-        the best kept if better, the step halved (``parallel_rows``: default the config's)."""
+        the best kept if better, the step halved."""
         z = np.array([w.z for w in walks])
         step = np.array([w.step for w in walks])
         trial = np.clip(z[:, None, :] + _NEIGHBOURS * step[:, None, :], self.lower, self.upper)
-        costs = evaluate_batch(trial.reshape(-1, 4), cycle,
-                               parallel_rows=parallel_rows or self.solver_config.parallel_rows
-                               ).costs.total
+        costs = self._exact(trial.reshape(-1, 4), cycle, one_thread)
         costs = np.where(np.isfinite(costs), costs, np.inf).reshape(len(z), -1)
         for walk, row, trials in zip(walks, costs, trial):
             best = int(np.argmin(row))
@@ -267,7 +268,7 @@ class NlpSolver:
             while walk.rounds < self.solver_config.polish_rounds:
                 if not busy():
                     return
-                self._rounds([walk], cycle, _ONE_THREAD)
+                self._rounds([walk], cycle, one_thread=True)
 
     def _polish(self, records, cycle, walks=None) -> StartRecord | None:
         """Pattern search on the exact cost around the best distinct candidates (see
