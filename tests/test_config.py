@@ -66,6 +66,7 @@ def test_variants_differ_only_in_the_two_switches():
         (lambda: SolverConfig(n_samples=0), "n_samples"),
         (lambda: SolverConfig(n_solved=0), "n_solved"),
         (lambda: SolverConfig(polish_ahead="yes"), "polish_ahead"),
+        (lambda: SolverConfig(screen_ahead=1), "screen_ahead"),
     ],
 )
 def test_invalid_values_raise_naming_the_field(make, field):

@@ -232,6 +232,17 @@ def test_the_polish_leaves_out_candidates_trailing_the_best_by_more_than_its_mar
     assert batches == [seeds * len(nlp._NEIGHBOURS)] * 2
 
 
+def _compile_afresh(monkeypatch):
+    """Both numba kernels loaded afresh (an earlier test may have turned them off)."""
+    from dsmpepc_nlp.solve import exact, newton
+
+    monkeypatch.delenv("DSMPEPC_NO_COMPILE", raising=False)
+    monkeypatch.setattr(exact, "_STATE", {"kernel": None, "failed": "", "numpy_only": False})
+    monkeypatch.setattr(newton, "_KERNEL", {})
+    if exact.kernel() is None or newton._kernel() is None:
+        pytest.skip("numba missing")
+
+
 @pytest.mark.parametrize("method, compile_", [("ipopt", False), ("ipopt", True),
                                              ("newton", True)],
                          ids=["ipopt-numpy", "ipopt-compiled", "newton-compiled"])
@@ -243,22 +254,24 @@ def test_polishing_ahead_on_the_idle_thread_gives_the_same_plan(monkeypatch, met
     import time
 
     from dsmpepc_nlp.bench.scenes import demo_cycles
-    from dsmpepc_nlp.solve import exact, ipopt, newton, nlp, threads
+    from dsmpepc_nlp.solve import ipopt, newton, nlp, threads
 
-    if compile_:       # both kernels loaded afresh (an earlier test may have turned them off)
-        monkeypatch.delenv("DSMPEPC_NO_COMPILE", raising=False)
-        monkeypatch.setattr(exact, "_STATE", {"kernel": None, "failed": "",
-                                              "numpy_only": False})
-        monkeypatch.setattr(newton, "_KERNEL", {})
-        if exact.kernel() is None or newton._kernel() is None:
-            pytest.skip("numba missing")
+    if compile_:
+        _compile_afresh(monkeypatch)
 
-    def last_start_late(solve, n, slots, idle=None):   # an idle thread, however fast the solves
+    def last_start_late(solve, n, slots, idle=None, more=None):   # an idle thread, however
+        total = [n]                                                # fast the solves
+
+        def listed():
+            extra = more()
+            total[0] += extra
+            return extra
+
         def late(i, slot):
-            if i == n - 1:
+            if i == total[0] - 1:
                 time.sleep(0.05)
             return solve(i, slot)
-        return threads.run_starts(late, n, slots, idle)
+        return threads.run_starts(late, n, slots, idle, None if more is None else listed)
 
     for module in (ipopt, newton):
         monkeypatch.setattr(module, "run_starts", last_start_late)
@@ -288,6 +301,67 @@ def test_polishing_ahead_on_the_idle_thread_gives_the_same_plan(monkeypatch, met
             assert a.exact_cost == b.exact_cost or np.isnan(a.exact_cost) and np.isnan(
                 b.exact_cost)
     assert ahead_rounds and max(ahead_rounds) > 0 and polished > 0
+
+
+@pytest.mark.parametrize("compile_", [False, True], ids=["numpy", "compiled"])
+def test_screening_while_the_warm_start_solves_gives_the_same_plan(monkeypatch, compile_):
+    """``screen_ahead``: the warm start's solve begins before the screen of the other starts
+    ends (which a slowed screen makes certain), and every record of every cycle is the same
+    to the bit as when the screen comes first; without a warm start the screen comes first."""
+    import threading
+    import time
+
+    from dsmpepc_nlp.bench.scenes import demo_cycles
+    from dsmpepc_nlp.solve import ipopt, nlp
+
+    if compile_:
+        _compile_afresh(monkeypatch)
+    events = []
+    lock = threading.Lock()
+    original_exact, original_solve = nlp.NlpSolver._exact, ipopt.IpoptSolver.solve
+
+    def slow_screen(self, z, cycle, one_thread=False):
+        screening = len(z) > 24                 # the screen, not a verdict or a polish round
+        if screening:
+            time.sleep(0.02)
+        costs = original_exact(self, z, cycle, one_thread)
+        if screening:
+            with lock:
+                events.append(("screened", self.solver_config.screen_ahead))
+        return costs
+
+    def solve(self, problem, z0, lam_x=None, slot=0):
+        with lock:
+            events.append(("warm" if lam_x is not None else "cold", self.solver.screen_ahead))
+        return original_solve(self, problem, z0, lam_x, slot)
+
+    monkeypatch.setattr(nlp.NlpSolver, "_exact", slow_screen)
+    monkeypatch.setattr(ipopt.IpoptSolver, "solve", solve)
+    knobs = dict(n_spread=2, max_iter=4, n_screen=32, n_solved=3, solve_threads=2,
+                 **BUCKETS)
+    ahead = NlpSolver(CONFIG, SolverConfig(**knobs), SMALL)
+    first = NlpSolver(CONFIG, SolverConfig(screen_ahead=False, **knobs), SMALL)
+    orders, previous = [], None
+    for state, world, goal in demo_cycles(CONFIG, 4, seed=0, n_samples=64):
+        cycle = Cycle.prepare(state, world, goal, CONFIG)
+        starts = structured_starts(state, goal, CONFIG, previous)
+        events.clear()
+        one = ahead.solve(cycle, starts)
+        best = min((r for r in one if np.isfinite(r.exact_cost)), key=lambda r: r.exact_cost)
+        previous = (rollout(best.z, state, CONFIG).target, float(best.z[3]))   # as a planner
+        orders.append([kind for kind, flag in events if flag])
+        two = first.solve(cycle, starts)
+        assert [kind for kind, flag in events if not flag][0] == "screened"
+        assert [r.name for r in one] == [r.name for r in two]
+        for a, b in zip(one, two):
+            np.testing.assert_array_equal(a.z, b.z)
+            assert (a.status, a.nit, a.smooth_cost) == (b.status, b.nit, b.smooth_cost) or \
+                np.isnan(a.smooth_cost) and np.isnan(b.smooth_cost)
+            assert a.exact_cost == b.exact_cost or np.isnan(a.exact_cost) and np.isnan(
+                b.exact_cost)
+    assert orders[0][0] == "screened"                     # no warm start yet: screen first
+    assert all(order[0] == "warm" and order.index("screened") < order.index("cold")
+               for order in orders[1:])                    # then the warm solve starts first
 
 
 @pytest.mark.parametrize("hessian", ["differences", "quasi-newton"])

@@ -46,3 +46,42 @@ def test_an_error_of_a_solve_reaches_the_caller():
 
     with pytest.raises(RuntimeError, match="solver broke"):
         run_starts(solve, 3, 2)
+
+
+def test_the_further_starts_are_listed_once_while_the_first_solves():
+    """``more``: the thread without a start lists the further starts while the first start
+    solves (it waits until they are listed); every start's result comes back in order, the
+    listing once, and the other thread takes the listed starts too."""
+    listed = threading.Event()
+    calls, slots = [], {}
+
+    def solve(i, slot):
+        if i == 0:
+            assert listed.wait(5.0), "the further starts were not listed meanwhile"
+        slots[i] = slot
+        return 10 * i
+
+    def more():
+        calls.append(threading.current_thread().name)
+        listed.set()
+        return 2
+
+    assert run_starts(solve, 1, 2, more=more) == [0, 10, 20]
+    assert len(calls) == 1 and slots[0] != slots[1]
+
+
+def test_an_error_while_listing_reaches_the_caller_and_nothing_is_listed_twice():
+    calls = []
+
+    def more():
+        calls.append(1)
+        raise RuntimeError("screen broke")
+
+    with pytest.raises(RuntimeError, match="screen broke"):
+        run_starts(lambda i, slot: i, 1, 2, more=more)
+    assert calls == [1]
+
+
+def test_one_thread_lists_the_further_starts_after_its_own():
+    assert run_starts(lambda i, slot: (i, slot), 1, 1, more=lambda: 2) == \
+        [(0, 0), (1, 0), (2, 0)]

@@ -514,6 +514,11 @@ class SolverConfig:
     screened starts and the finished solves). The final polish continues those walks whose
     seed is still a seed. Every walk is the same wherever it runs, so the plan is the same
     either way (held by a test); only the wall time changes."""
+    screen_ahead: bool = True
+    """Solve from the warm start at once, while a second thread costs the other starts
+    exactly (the screen; IPOPT only): the warm start is solved whatever the screen finds, and
+    the solves from the best other starts follow it. Every solve and record is the same
+    either way (held by a test); the plan is ready about one screen earlier."""
     trust_radius: float = 0.25
     """Initial trust radius of ``newton``, as a share of each variable's range."""
     soft_turn: float = 0.6
@@ -541,8 +546,9 @@ class SolverConfig:
                                 "trust_radius": dict(low=0.0, low_open=True, high=1.0),
                                 "soft_turn": dict(low=0.0), "hard_turn": dict(low=0.0),
                                 "turn_distance": positive})
-        if not isinstance(self.polish_ahead, bool):
-            _fail("SolverConfig", "polish_ahead", self.polish_ahead, "True or False")
+        for name in ("polish_ahead", "screen_ahead"):
+            if not isinstance(getattr(self, name), bool):
+                _fail("SolverConfig", name, getattr(self, name), "True or False")
         hessians = ("differences", "exact", "quasi-newton")
         if self.hessian not in hessians:
             _fail("SolverConfig", "hessian", self.hessian, " or ".join(map(repr, hessians)))

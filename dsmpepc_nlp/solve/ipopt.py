@@ -65,6 +65,9 @@ class IpoptSolver:
     """IPOPT on a :class:`Problem` with its compiled functions; ``nlpsol`` built once per
     problem (cold and warm variants)."""
 
+    lists_while_solving = True
+    """:meth:`solve_many` asks for the further starts (``more``) while the first ones solve."""
+
     def __init__(self, solver: SolverConfig):
         self.solver = solver
         self._built = {}
@@ -76,25 +79,34 @@ class IpoptSolver:
             self._built[key] = _build_ipopt(problem, self.solver, warm)
         return self._built[key]
 
-    def solve_many(self, problem: Problem, starts, idle=None) -> list:
+    def solve_many(self, problem: Problem, starts, idle=None, more=None) -> list:
         """:meth:`solve` from every ``(z0, lam_x)`` of ``starts``, in their order.
 
         With ``SolverConfig.solve_threads`` above 1 the solves run at once on that many
         threads (each thread slot its own ``nlpsol``; CasADi lets go of Python's lock while
         IPOPT runs); each start is solved exactly as it would be alone.
 
-        ``idle``: work for a thread left without a start while another solves
-        (:func:`.threads.run_starts`).
+        ``more()``: the further starts (a list of ``(z0, lam_x)``), asked for by the first
+        thread left without a start, while the others solve (:func:`.threads.run_starts`);
+        their results follow. ``idle``: work for a thread left without a start while another
+        solves (:func:`.threads.run_starts`).
         """
         starts = list(starts)
-        slots = min(self.solver.solve_threads, len(starts))
-        if slots <= 1:
-            return [self.solve(problem, z0, lam_x) for z0, lam_x in starts]
-        for slot in range(slots):     # built here, not in the threads: building is not
-            for warm in {lam_x is not None for _, lam_x in starts}:      # thread-safe
+        slots = self.solver.solve_threads if more is not None else \
+            min(self.solver.solve_threads, len(starts))
+        variants = {False, True} if more is not None else \
+            {lam_x is not None for _, lam_x in starts}
+        for slot in range(slots if slots > 1 else 0):   # built here, not in the threads:
+            for warm in variants:                         # building is not thread-safe
                 self._nlpsol(problem, warm, slot)
+
+        def listed():
+            extra = list(more())
+            starts.extend(extra)
+            return len(extra)
+
         return run_starts(lambda i, slot: self.solve(problem, *starts[i], slot=slot),
-                          len(starts), slots, idle)
+                          len(starts), max(slots, 1), idle, None if more is None else listed)
 
     def solve(self, problem: Problem, z0, lam_x=None, slot: int = 0) -> SolveResult:
         """Minimise from ``z0``, warm-started from ``lam_x`` when given (``slot``: which

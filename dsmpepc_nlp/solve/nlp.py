@@ -156,25 +156,44 @@ class NlpSolver:
         named += [(f"spread-{i}", z) for i, z in enumerate(self.spread)]
         named += [(f"screen-{i}", z) for i, z in enumerate(self.screen)]
         self.last_stats = []
-        costs = self._exact(np.array([z for _, z in named]), cycle)
-        records = [StartRecord(name, z0, z0, "screened", False, 0, 0.0, math.nan,
-                               float(costs[i])) for i, (name, z0) in enumerate(named)]
         problem = self.problem(cycle)
         packed = time.perf_counter()
         problem.bind(problem.pack(cycle))
         pack_s = time.perf_counter() - packed
+        records, chosen = [], []
+
+        def screen(one_thread=False):
+            """Cost every start exactly; the records and the starts to solve from."""
+            costs = self._exact(np.array([z for _, z in named]), cycle, one_thread)
+            records.extend(StartRecord(name, z0, z0, "screened", False, 0, 0.0, math.nan,
+                                       float(costs[i])) for i, (name, z0) in enumerate(named))
+            chosen.extend(self._choose(named, costs))
+
+        # The warm start is solved whatever the screen finds (it is always first), so with
+        # ``screen_ahead`` it starts at once and a second thread screens meanwhile, then
+        # takes the best distinct others: every solve and record is the same, earlier.
+        first = [i for i, (name, _) in enumerate(named) if name == "warm"]
+        more = None
+        if (first and self.solver_config.screen_ahead and self.solver_config.solve_threads > 1
+                and self._solver.lists_while_solving):
+            def more():
+                screen(one_thread=True)
+                return [named[i] for i in chosen[1:]]
+        else:
+            screen()
+            first = chosen
         best_cost, best_lam = math.inf, None
-        chosen = self._choose(named, costs)
         walks = {}
         idle = None
         if self.solver_config.polish_ahead:
-            def idle(done, busy):
+            def idle(done, busy):       # called once the screen is done (threads.run_starts)
                 ahead = list(records)
                 for index, result in done.items():
                     ahead[chosen[index]] = self._solved_record(named[chosen[index]], result)
                 self._verdicts(ahead, cycle, one_thread=True)
                 self._polish_walks(ahead, cycle, walks, busy)
-        for i, result in zip(chosen, self._run(problem, [named[i] for i in chosen], idle)):
+        results = self._run(problem, [named[i] for i in first], idle, more)
+        for i, result in zip(chosen, results):
             name, z0 = named[i]
             self.last_stats.append({"name": name, "iter_count": result.nit,
                                     "nfev": result.nfev, "ngev": result.ngev,
@@ -298,9 +317,14 @@ class NlpSolver:
                            any(r.success for r in records), rounds,
                            time.perf_counter() - started, math.nan, winner.cost)
 
-    def _run(self, problem, named, idle=None) -> list:
-        """The solves from every ``(name, z0)`` of ``named`` (the warm start reuses the last
-        plan's multipliers), one :class:`~dsmpepc_nlp.solve.solvers.SolveResult` each;
-        ``idle`` as in :meth:`.ipopt.IpoptSolver.solve_many`."""
-        return self._solver.solve_many(problem, [(z0, self._lam_x if name == "warm" else None)
-                                                 for name, z0 in named], idle=idle)
+    def _run(self, problem, named, idle=None, more=None) -> list:
+        """The solves from every ``(name, z0)`` of ``named`` and then of ``more()`` (the warm
+        start reuses the last plan's multipliers), one
+        :class:`~dsmpepc_nlp.solve.solvers.SolveResult` each; ``idle`` and ``more`` as in
+        :meth:`.ipopt.IpoptSolver.solve_many`."""
+        def start(name, z0):
+            return z0, self._lam_x if name == "warm" else None
+
+        return self._solver.solve_many(
+            problem, [start(*n) for n in named], idle=idle,
+            more=None if more is None else lambda: [start(*n) for n in more()])

@@ -55,6 +55,9 @@ class NewtonSolver:
     """The trust-region Newton method on a :class:`Problem` (parameters already bound);
     ``hessian="quasi-newton"``: symmetric rank-one updates (:func:`sr1`)."""
 
+    lists_while_solving = False
+    """:meth:`solve_many` asks for the further starts (``more``) before it solves."""
+
     def __init__(self, solver: SolverConfig):
         self.solver = solver
 
@@ -62,8 +65,10 @@ class NewtonSolver:
         """Minimise from ``z0``; ``lam_x`` is ignored (no multipliers to warm)."""
         return self.solve_many(problem, [(z0, lam_x)])[0]
 
-    def solve_many(self, problem: Problem, starts, idle=None) -> list:
-        """Minimise from every ``(z0, lam_x)`` of ``starts`` (``lam_x`` ignored).
+    def solve_many(self, problem: Problem, starts, idle=None, more=None) -> list:
+        """Minimise from every ``(z0, lam_x)`` of ``starts`` (``lam_x`` ignored), then from
+        every start ``more()`` lists (asked for first here: the compiled loop's buffers are
+        sized before it starts, so its solves do not overlap the listing as IPOPT's do).
 
         With the quasi-Newton Hessian on compiled functions the starts run at once on
         ``SolverConfig.solve_threads`` threads, the loop compiled
@@ -74,6 +79,7 @@ class NewtonSolver:
         started = time.perf_counter()
         knobs = dict(radius=self.solver.trust_radius, max_iter=self.solver.max_iter,
                      tol=self.solver.tol)
+        starts = list(starts) + (list(more()) if more is not None else [])
         z0s = [np.asarray(z0, dtype=float) for z0, _ in starts]
         if self.solver.hessian == "quasi-newton":
             def lent(done, busy):     # the idle thread sees results as the solver gives them

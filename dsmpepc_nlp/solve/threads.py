@@ -25,17 +25,22 @@ def pool(threads: int) -> ThreadPoolExecutor:
     return _POOLS[key]
 
 
-def run_starts(solve, n: int, slots: int, idle=None) -> list:
+def run_starts(solve, n: int, slots: int, idle=None, more=None) -> list:
     """``[solve(i, slot) for i in range(n)]`` on ``slots`` threads, each thread (``slot``)
     taking the next ``i`` when it is free; in order of ``i``.
+
+    ``more()``, when given, is called once, by the first thread that finds no start left (the
+    others wait for it), and returns how many starts follow: ``solve`` is then called for
+    ``n, n + 1, ...`` too and the list is that much longer. The multistart lends it the screen
+    of its starts, which the starts after the warm one depend on, while the warm one solves.
 
     ``idle(done, busy)``, when given, is called on a thread that has no start left while
     another still solves: ``done`` maps the index of every finished start to its result and
     ``busy()`` says whether a solve still runs. At most one thread runs it at a time, and
-    this returns after it has. Exceptions of ``solve`` or ``idle`` reach the caller.
+    this returns after it has. Exceptions of ``solve``, ``more`` or ``idle`` reach the caller.
     """
-    pending = iter(range(n))
-    lock, idle_lock = threading.Lock(), threading.Lock()
+    queue = {"pending": iter(range(n)), "more": more}
+    lock, idle_lock, more_lock = threading.Lock(), threading.Lock(), threading.Lock()
     results = [None] * n
     running = [0]
 
@@ -43,11 +48,27 @@ def run_starts(solve, n: int, slots: int, idle=None) -> list:
         with lock:
             return running[0] > 0
 
+    def take():
+        with lock:
+            i = next(queue["pending"], None)
+            running[0] += i is not None
+        if i is not None or queue["more"] is None:
+            return i
+        with more_lock:         # one thread lists the further starts; the others wait here
+            listing = queue["more"]
+            if listing is not None:
+                try:
+                    extra = listing()
+                    with lock:
+                        queue["pending"] = iter(range(len(results), len(results) + extra))
+                        results.extend([None] * extra)
+                finally:        # set once the starts are queued (or ``more`` raised): never
+                    queue["more"] = None        # called twice, never a start missed
+        return take()
+
     def work(slot):
         while True:
-            with lock:
-                i = next(pending, None)
-                running[0] += i is not None
+            i = take()
             if i is None:
                 break
             try:
@@ -63,6 +84,9 @@ def run_starts(solve, n: int, slots: int, idle=None) -> list:
             finally:
                 idle_lock.release()
 
+    if slots <= 1:
+        work(0)
+        return results
     for future in [pool(slots).submit(work, slot) for slot in range(slots)]:
         future.result()
     return results
