@@ -516,9 +516,9 @@ class SolverConfig:
     either way (held by a test); only the wall time changes."""
     screen_ahead: bool = True
     """Solve from the warm start at once, while a second thread costs the other starts
-    exactly (the screen; IPOPT only): the warm start is solved whatever the screen finds, and
-    the solves from the best other starts follow it. Every solve and record is the same
-    either way (held by a test); the plan is ready about one screen earlier."""
+    exactly (the screen): the warm start is solved whatever the screen finds, and the solves
+    from the best other starts follow it (with ``solve_threads`` above 1). Every solve and
+    record is the same either way (held by a test); only the wall time changes."""
     trust_radius: float = 0.25
     """Initial trust radius of ``newton``, as a share of each variable's range."""
     soft_turn: float = 0.6

@@ -65,9 +65,6 @@ class IpoptSolver:
     """IPOPT on a :class:`Problem` with its compiled functions; ``nlpsol`` built once per
     problem (cold and warm variants)."""
 
-    lists_while_solving = True
-    """:meth:`solve_many` asks for the further starts (``more``) while the first ones solve."""
-
     def __init__(self, solver: SolverConfig):
         self.solver = solver
         self._built = {}

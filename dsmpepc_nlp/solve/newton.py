@@ -219,35 +219,38 @@ _STATUS = ("converged", "max_iter", "small_radius", "non-finite")
 
 
 def minimize_compiled(functions, x0, lower, upper, *, radius=0.25, max_iter=40, tol=1e-5,
-                      min_radius=1e-4, threads: int = 2, idle=None) -> list | None:
+                      min_radius=1e-4, threads: int = 2, idle=None, more=None) -> list | None:
     """:func:`minimize` with ``solvers.sr1``'s quasi-Newton Hessian from every row of ``x0``
     (k, n), the whole loop compiled and the starts on ``threads`` parallel threads.
 
     ``functions`` is a :class:`~dsmpepc_nlp.solve.compiled.Compiled` with its parameters
     bound; the loop (:func:`._newton_kernel.minimize_sr1`, numba, letting go of Python's lock)
-    calls the generated F, G and H itself: no Python per evaluation. Each start has its own
-    buffers and takes the same steps as the Python loop (a test holds them together); the
-    starts are shared out by :func:`.threads.run_starts` (``idle`` as there). Returns one
-    :class:`NewtonResult` per start, or None when the loop cannot run compiled (no numba,
-    compilation off, or the functions on CasADi's virtual machine): use :func:`minimize`.
+    calls the generated F, G and H itself: no Python per evaluation. Each thread has its own
+    buffers and each start takes the same steps as in the Python loop (a test holds them
+    together); the starts are shared out by :func:`.threads.run_starts` (``idle`` as there;
+    ``more()``, the further starts, a list of rows, asked for by the first thread left
+    without a start). Returns one :class:`NewtonResult` per start, or None when the loop
+    cannot run compiled (no numba, compilation off, or the functions on CasADi's virtual
+    machine): use :func:`minimize`.
     """
     module = _kernel()
     if module is None or _KERNEL.get("loop_failed"):
         return None
-    x0 = np.atleast_2d(np.asarray(x0, dtype=float))
-    natives = [functions.native(name, len(x0)) for name in ("F", "G", "H")]
+    starts = [np.asarray(row, dtype=float) for row in np.atleast_2d(np.asarray(x0, dtype=float))]
+    slots = max(1, int(threads) if more is not None else min(int(threads), len(starts)))
+    natives = [functions.native(name, slots) for name in ("F", "G", "H")]
     if any(n is None for n in natives):
         return None
     (f_fn, f_buf, f_in, f_out), (g_fn, g_buf, g_in, g_out), (h_fn, h_buf, h_in, h_out) = natives
     lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
-    faces = _faces(x0.shape[1])
+    faces = _faces(len(lower))
 
-    def solve(s, _slot):
+    def solve(s, t):        # start s on thread slot t (its buffers)
         try:
             x, fun, nit, status, nfev, nhev = module.minimize_sr1(
-                f_fn, f_buf[s], f_in[s], f_out[0][s], g_fn, g_buf[s], g_in[s], g_out[0][s],
-                g_out[1][s], h_fn, h_buf[s], h_in[s], h_out[0][s], h_out[1][s], h_out[2][s],
-                x0[s], lower, upper, float(radius), int(max_iter), float(tol),
+                f_fn, f_buf[t], f_in[t], f_out[0][t], g_fn, g_buf[t], g_in[t], g_out[0][t],
+                g_out[1][t], h_fn, h_buf[t], h_in[t], h_out[0][t], h_out[1][t], h_out[2][t],
+                starts[s], lower, upper, float(radius), int(max_iter), float(tol),
                 float(min_radius), *faces)
         except Exception as error:  # noqa: BLE001 - e.g. a numba that cannot type the call
             raise _LoopFailed(f"{type(error).__name__}: {str(error)[:200]}") from error
@@ -255,11 +258,13 @@ def minimize_compiled(functions, x0, lower, upper, *, radius=0.25, max_iter=40, 
         return NewtonResult(np.array(x), float(fun), int(nit), status, status == "converged",
                             int(nfev), int(nhev))
 
-    slots = max(1, min(int(threads), len(x0)))
+    def listed():
+        extra = [np.asarray(row, dtype=float) for row in more()]
+        starts.extend(extra)
+        return len(extra)
+
     try:
-        if slots == 1:
-            return [solve(s, 0) for s in range(len(x0))]
-        return run_starts(solve, len(x0), slots, idle)
+        return run_starts(solve, len(starts), slots, idle, None if more is None else listed)
     except _LoopFailed as failure:
         _KERNEL["loop_failed"] = True
         warn_once("newton-loop", f"the compiled Newton loop failed ({failure}): the Python "

@@ -174,8 +174,7 @@ class NlpSolver:
         # takes the best distinct others: every solve and record is the same, earlier.
         first = [i for i, (name, _) in enumerate(named) if name == "warm"]
         more = None
-        if (first and self.solver_config.screen_ahead and self.solver_config.solve_threads > 1
-                and self._solver.lists_while_solving):
+        if first and self.solver_config.screen_ahead and self.solver_config.solve_threads > 1:
             def more():
                 screen(one_thread=True)
                 return [named[i] for i in chosen[1:]]

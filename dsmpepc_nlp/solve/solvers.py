@@ -55,9 +55,6 @@ class NewtonSolver:
     """The trust-region Newton method on a :class:`Problem` (parameters already bound);
     ``hessian="quasi-newton"``: symmetric rank-one updates (:func:`sr1`)."""
 
-    lists_while_solving = False
-    """:meth:`solve_many` asks for the further starts (``more``) before it solves."""
-
     def __init__(self, solver: SolverConfig):
         self.solver = solver
 
@@ -67,20 +64,27 @@ class NewtonSolver:
 
     def solve_many(self, problem: Problem, starts, idle=None, more=None) -> list:
         """Minimise from every ``(z0, lam_x)`` of ``starts`` (``lam_x`` ignored), then from
-        every start ``more()`` lists (asked for first here: the compiled loop's buffers are
-        sized before it starts, so its solves do not overlap the listing as IPOPT's do).
+        every start ``more()`` lists.
 
         With the quasi-Newton Hessian on compiled functions the starts run at once on
         ``SolverConfig.solve_threads`` threads, the loop compiled
         (:func:`.newton.minimize_compiled`; each result's ``time_s`` is then the batch's wall
-        time; ``idle`` as in :func:`.threads.run_starts`); else one after another in the
-        Python loop, its definition (no thread is left idle there: ``idle`` is not called).
+        time; ``idle`` and ``more`` as in :func:`.threads.run_starts`); else one after
+        another in the Python loop, its definition (no thread is left idle there: ``idle`` is
+        not called; ``more`` is asked for first).
         """
         started = time.perf_counter()
         knobs = dict(radius=self.solver.trust_radius, max_iter=self.solver.max_iter,
                      tol=self.solver.tol)
-        starts = list(starts) + (list(more()) if more is not None else [])
         z0s = [np.asarray(z0, dtype=float) for z0, _ in starts]
+        listing = []
+
+        def listed():               # once, even when the compiled loop fails after asking
+            if not listing:
+                listing.append([np.asarray(z0, dtype=float) for z0, _ in more()])
+                z0s.extend(listing[0])
+            return [z0 for z0 in listing[0]]
+
         if self.solver.hessian == "quasi-newton":
             def lent(done, busy):     # the idle thread sees results as the solver gives them
                 elapsed = time.perf_counter() - started
@@ -89,10 +93,13 @@ class NewtonSolver:
 
             results = minimize_compiled(problem.functions, np.array(z0s), problem.lower,
                                         problem.upper, threads=self.solver.solve_threads,
-                                        idle=None if idle is None else lent, **knobs)
+                                        idle=None if idle is None else lent,
+                                        more=None if more is None else listed, **knobs)
             if results is not None:
                 elapsed = time.perf_counter() - started
                 return [self._result(problem, z0, r, elapsed) for z0, r in zip(z0s, results)]
+        if more is not None:
+            listed()
         out = []
         for z0 in z0s:
             begun = time.perf_counter()
