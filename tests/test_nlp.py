@@ -232,6 +232,18 @@ def test_the_polish_leaves_out_candidates_trailing_the_best_by_more_than_its_mar
     assert batches == [seeds * len(nlp._NEIGHBOURS)] * 2
 
 
+def _assert_same_records(one, two):
+    """Two multistarts' records equal to the bit: names, points, statuses, iterations, the
+    smooth and the exact costs (NaN equal to NaN)."""
+    assert [r.name for r in one] == [r.name for r in two]
+    for a, b in zip(one, two):
+        np.testing.assert_array_equal(a.z, b.z)
+        assert (a.status, a.nit) == (b.status, b.nit)
+        for cost in ("smooth_cost", "exact_cost"):
+            x, y = getattr(a, cost), getattr(b, cost)
+            assert x == y or np.isnan(x) and np.isnan(y), (a.name, cost, x, y)
+
+
 def _compile_afresh(monkeypatch):
     """Both numba kernels loaded afresh (an earlier test may have turned them off)."""
     from dsmpepc_nlp.solve import exact, newton
@@ -294,12 +306,7 @@ def test_polishing_ahead_on_the_idle_thread_gives_the_same_plan(monkeypatch, met
         starts = structured_starts(state, goal, CONFIG)
         one, two = ahead.solve(cycle, starts), after.solve(cycle, starts)
         polished += one[-1].name == "polish"
-        assert [r.name for r in one] == [r.name for r in two]
-        for a, b in zip(one, two):
-            np.testing.assert_array_equal(a.z, b.z)
-            assert (a.status, a.nit) == (b.status, b.nit)
-            assert a.exact_cost == b.exact_cost or np.isnan(a.exact_cost) and np.isnan(
-                b.exact_cost)
+        _assert_same_records(one, two)
     assert ahead_rounds and max(ahead_rounds) > 0 and polished > 0
 
 
@@ -360,14 +367,7 @@ def test_screening_while_the_warm_start_solves_gives_the_same_plan(monkeypatch, 
         events.clear()
         two = first.solve(cycle, starts)
         assert events[0] == "screened"
-        assert [r.name for r in one] == [r.name for r in two]
-        for a, b in zip(one, two):
-            np.testing.assert_array_equal(a.z, b.z)
-            assert (a.status, a.nit) == (b.status, b.nit)
-            assert a.smooth_cost == b.smooth_cost or np.isnan(a.smooth_cost) and np.isnan(
-                b.smooth_cost)
-            assert a.exact_cost == b.exact_cost or np.isnan(a.exact_cost) and np.isnan(
-                b.exact_cost)
+        _assert_same_records(one, two)
     assert orders[0][0] == "screened"                     # no warm start yet: screen first
     assert all(order[0] == "solve 0" and order.index("screened") < order.index("solve 1")
                for order in orders[1:])                    # then the warm solve starts first

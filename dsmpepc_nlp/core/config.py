@@ -469,10 +469,10 @@ class SolverConfig:
     """Low-discrepancy z costed exactly with the named starts before any solve (the landscape
     is multimodal: the NLP only runs from the best of them)."""
     n_solved: int = 3
-    """Starts the NLP runs from (the warm start, then the best distinct others). Two would be
-    one round on two threads, ~10 ms less per default plan, with the built-in scenarios'
-    outcomes and the cross-check targets kept, but it deadlocked in ~7 more of BARN's 300
-    worlds (docs/nlp.md, "Pass 5"): three."""
+    """Starts the NLP runs from (the warm start, then the best distinct others). Two (with 7
+    polished seeds) would save ~7 ms a default plan, with the built-in scenarios' outcomes
+    and the cross-check targets kept, but BARN's 300 worlds went 200 -> 197 and 202 -> 199
+    with two screening seeds (docs/nlp.md, "Pass 8"): three."""
     solve_threads: int = 2
     """Threads the solves of one plan run on at once (IPOPT: each with its own ``nlpsol``,
     which releases Python's lock while it runs; ``newton``: its compiled loop, which does too);
