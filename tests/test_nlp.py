@@ -274,8 +274,8 @@ def test_polishing_ahead_on_the_idle_thread_gives_the_same_plan(monkeypatch, met
     def last_start_late(solve, n, slots, idle=None, more=None):   # an idle thread, however
         total = [n]                                                # fast the solves
 
-        def listed():
-            extra = more()
+        def listed(busy):
+            extra = more(busy)
             total[0] += extra
             return extra
 
@@ -371,6 +371,37 @@ def test_screening_while_the_warm_start_solves_gives_the_same_plan(monkeypatch, 
     assert orders[0][0] == "screened"                     # no warm start yet: screen first
     assert all(order[0] == "solve 0" and order.index("screened") < order.index("solve 1")
                for order in orders[1:])                    # then the warm solve starts first
+
+
+@pytest.mark.parametrize("method, hessian, beside", [
+    ("ipopt", "quasi-newton", True), ("newton", "differences", False)],
+    ids=["ipopt-beside-the-warm-solve", "newton-python-loop-first"])
+def test_the_screen_keeps_both_cores_unless_a_solve_runs_beside_it(monkeypatch, method,
+                                                                   hessian, beside):
+    """The screen runs on one core only while the warm start solves on the other; the fast
+    method's Python loop (here with the difference Hessian) lists its starts first, and then
+    the screen has both cores."""
+    from dsmpepc_nlp.solve import nlp
+
+    seen = []
+    original = nlp.NlpSolver._exact
+
+    def spy(self, z, cycle, one_thread=False):
+        if len(z) > 24:
+            seen.append(one_thread)
+        return original(self, z, cycle, one_thread)
+
+    monkeypatch.setattr(nlp.NlpSolver, "_exact", spy)
+    make = SolverConfig.fast if method == "newton" else SolverConfig
+    solver = NlpSolver(CONFIG, make(n_spread=2, max_iter=3, n_screen=32, n_solved=2,
+                                    solve_threads=2, polish_rounds=0, hessian=hessian,
+                                    **BUCKETS), SMALL)
+    state, world, goal = _demo_cycle()
+    cycle = Cycle.prepare(state, world, goal, CONFIG)
+    previous = (rollout(np.array([1.0, 0.0, 0.0, 0.5]), state, CONFIG).target, 0.5)
+    records = solver.solve(cycle, structured_starts(state, goal, CONFIG, previous))
+    assert any(r.name == "warm" and r.status != "screened" for r in records)
+    assert seen == [beside]
 
 
 @pytest.mark.parametrize("hessian", ["differences", "quasi-newton"])

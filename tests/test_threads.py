@@ -50,8 +50,8 @@ def test_an_error_of_a_solve_reaches_the_caller():
 
 def test_the_further_starts_are_listed_once_while_the_first_solves():
     """``more``: the thread without a start lists the further starts while the first start
-    solves (it waits until they are listed); every start's result comes back in order, the
-    listing once, and the other thread takes the listed starts too."""
+    solves (it waits until they are listed, and the listing is told so); every start's result
+    comes back in order, the listing once, and the other thread takes the listed starts too."""
     listed = threading.Event()
     calls, slots = [], {}
 
@@ -61,19 +61,19 @@ def test_the_further_starts_are_listed_once_while_the_first_solves():
         slots[i] = slot
         return 10 * i
 
-    def more():
-        calls.append(threading.current_thread().name)
+    def more(busy):
+        calls.append(busy)
         listed.set()
         return 2
 
     assert run_starts(solve, 1, 2, more=more) == [0, 10, 20]
-    assert len(calls) == 1 and slots[0] != slots[1]
+    assert calls == [True] and slots[0] != slots[1]      # listed while start 0 solved
 
 
 def test_an_error_while_listing_reaches_the_caller_and_nothing_is_listed_twice():
     calls = []
 
-    def more():
+    def more(busy):
         calls.append(1)
         raise RuntimeError("screen broke")
 
@@ -83,5 +83,11 @@ def test_an_error_while_listing_reaches_the_caller_and_nothing_is_listed_twice()
 
 
 def test_one_thread_lists_the_further_starts_after_its_own():
-    assert run_starts(lambda i, slot: (i, slot), 1, 1, more=lambda: 2) == \
-        [(0, 0), (1, 0), (2, 0)]
+    alone = []
+
+    def more(busy):
+        alone.append(not busy)
+        return 2
+
+    assert run_starts(lambda i, slot: (i, slot), 1, 1, more=more) == [(0, 0), (1, 0), (2, 0)]
+    assert alone == [True]                       # nothing solved while it listed

@@ -83,7 +83,7 @@ class IpoptSolver:
         threads (each thread slot its own ``nlpsol``; CasADi lets go of Python's lock while
         IPOPT runs); each start is solved exactly as it would be alone.
 
-        ``more()``: the further starts (a list of ``(z0, lam_x)``), asked for by the first
+        ``more(busy)``: the further starts (a list of ``(z0, lam_x)``), asked for by the first
         thread left without a start, while the others solve (:func:`.threads.run_starts`);
         their results follow. ``idle``: work for a thread left without a start while another
         solves (:func:`.threads.run_starts`).
@@ -97,8 +97,8 @@ class IpoptSolver:
             for warm in variants:                         # building is not thread-safe
                 self._nlpsol(problem, warm, slot)
 
-        def listed():
-            extra = list(more())
+        def listed(busy):
+            extra = list(more(busy))
             starts.extend(extra)
             return len(extra)
 

@@ -228,7 +228,7 @@ def minimize_compiled(functions, x0, lower, upper, *, radius=0.25, max_iter=40, 
     calls the generated F, G and H itself: no Python per evaluation. Each thread has its own
     buffers and each start takes the same steps as in the Python loop (a test holds them
     together); the starts are shared out by :func:`.threads.run_starts` (``idle`` as there;
-    ``more()``, the further starts, a list of rows, asked for by the first thread left
+    ``more(busy)``, the further starts, a list of rows, asked for by the first thread left
     without a start). Returns one :class:`NewtonResult` per start, or None when the loop
     cannot run compiled (no numba, compilation off, or the functions on CasADi's virtual
     machine): use :func:`minimize`.
@@ -258,8 +258,8 @@ def minimize_compiled(functions, x0, lower, upper, *, radius=0.25, max_iter=40, 
         return NewtonResult(np.array(x), float(fun), int(nit), status, status == "converged",
                             int(nfev), int(nhev))
 
-    def listed():
-        extra = [np.asarray(row, dtype=float) for row in more()]
+    def listed(busy):
+        extra = [np.asarray(row, dtype=float) for row in more(busy)]
         starts.extend(extra)
         return len(extra)
 

@@ -175,8 +175,8 @@ class NlpSolver:
         first = [i for i, (name, _) in enumerate(named) if name == "warm"]
         more = None
         if first and self.solver_config.screen_ahead and self.solver_config.solve_threads > 1:
-            def more():
-                screen(one_thread=True)
+            def more(busy):     # on one core while the warm start solves on the other
+                screen(one_thread=busy)
                 return [named[i] for i in chosen[1:]]
         else:
             screen()
@@ -317,8 +317,8 @@ class NlpSolver:
                            time.perf_counter() - started, math.nan, winner.cost)
 
     def _run(self, problem, named, idle=None, more=None) -> list:
-        """The solves from every ``(name, z0)`` of ``named`` and then of ``more()`` (the warm
-        start reuses the last plan's multipliers), one
+        """The solves from every ``(name, z0)`` of ``named`` and then of ``more(busy)`` (the
+        warm start reuses the last plan's multipliers), one
         :class:`~dsmpepc_nlp.solve.solvers.SolveResult` each; ``idle`` and ``more`` as in
         :meth:`.ipopt.IpoptSolver.solve_many`."""
         def start(name, z0):
@@ -326,4 +326,4 @@ class NlpSolver:
 
         return self._solver.solve_many(
             problem, [start(*n) for n in named], idle=idle,
-            more=None if more is None else lambda: [start(*n) for n in more()])
+            more=None if more is None else lambda busy: [start(*n) for n in more(busy)])

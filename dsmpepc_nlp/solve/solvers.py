@@ -64,7 +64,7 @@ class NewtonSolver:
 
     def solve_many(self, problem: Problem, starts, idle=None, more=None) -> list:
         """Minimise from every ``(z0, lam_x)`` of ``starts`` (``lam_x`` ignored), then from
-        every start ``more()`` lists.
+        every start ``more(busy)`` lists.
 
         With the quasi-Newton Hessian on compiled functions the starts run at once on
         ``SolverConfig.solve_threads`` threads, the loop compiled
@@ -79,9 +79,9 @@ class NewtonSolver:
         z0s = [np.asarray(z0, dtype=float) for z0, _ in starts]
         listing = []
 
-        def listed():               # once, even when the compiled loop fails after asking
+        def listed(busy):           # once, even when the compiled loop fails after asking
             if not listing:
-                listing.append([np.asarray(z0, dtype=float) for z0, _ in more()])
+                listing.append([np.asarray(z0, dtype=float) for z0, _ in more(busy)])
                 z0s.extend(listing[0])
             return [z0 for z0 in listing[0]]
 
@@ -99,7 +99,7 @@ class NewtonSolver:
                 elapsed = time.perf_counter() - started
                 return [self._result(problem, z0, r, elapsed) for z0, r in zip(z0s, results)]
         if more is not None:
-            listed()
+            listed(False)
         out = []
         for z0 in z0s:
             begun = time.perf_counter()

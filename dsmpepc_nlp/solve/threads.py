@@ -29,10 +29,12 @@ def run_starts(solve, n: int, slots: int, idle=None, more=None) -> list:
     """``[solve(i, slot) for i in range(n)]`` on ``slots`` threads, each thread (``slot``)
     taking the next ``i`` when it is free; in order of ``i``.
 
-    ``more()``, when given, is called once, by the first thread that finds no start left (the
-    others wait for it), and returns how many starts follow: ``solve`` is then called for
-    ``n, n + 1, ...`` too and the list is that much longer. The multistart lends it the screen
-    of its starts, which the starts after the warm one depend on, while the warm one solves.
+    ``more(busy)``, when given, is called once, by the first thread that finds no start left
+    (the others wait for it), and returns how many starts follow: ``solve`` is then called for
+    ``n, n + 1, ...`` too and the list is that much longer. ``busy`` says whether a start
+    still solves meanwhile (if not, the listing has every core to itself). The multistart
+    lends it the screen of its starts, which the starts after the warm one depend on, while
+    the warm one solves.
 
     ``idle(done, busy)``, when given, is called on a thread that has no start left while
     another still solves: ``done`` maps the index of every finished start to its result and
@@ -58,7 +60,7 @@ def run_starts(solve, n: int, slots: int, idle=None, more=None) -> list:
             listing = queue["more"]
             if listing is not None:
                 try:
-                    extra = listing()
+                    extra = listing(busy())
                     with lock:
                         queue["pending"] = iter(range(len(results), len(results) + extra))
                         results.extend([None] * extra)
