@@ -158,6 +158,12 @@ def test_compiled_newton_loop_takes_the_python_loops_steps(tmp_path, monkeypatch
             (python.nit, python.nfev, python.nhev, python.status)
         np.testing.assert_allclose(native.x, python.x, atol=1e-9)
         assert native.fun == pytest.approx(python.fun, abs=1e-9)
+    # No start up front, all of them listed by ``more``: the same solves, in order.
+    listed = newton.minimize_compiled(problem.functions, starts[:0], problem.lower,
+                                      problem.upper, max_iter=25, more=lambda busy: starts)
+    assert [(r.nit, r.status, r.fun) for r in listed] == \
+        [(r.nit, r.status, r.fun) for r in natives]
+    assert all(np.array_equal(a.x, b.x) for a, b in zip(listed, natives))
     machine = compiled.Compiled(problem.functions.functions, None)   # not compiled: no loop
     assert newton.minimize_compiled(machine, starts, problem.lower, problem.upper) is None
     # A compiled loop that fails (say a numba that cannot type the call) warns once and hands

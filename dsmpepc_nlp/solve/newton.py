@@ -236,13 +236,13 @@ def minimize_compiled(functions, x0, lower, upper, *, radius=0.25, max_iter=40, 
     module = _kernel()
     if module is None or _KERNEL.get("loop_failed"):
         return None
-    starts = [np.asarray(row, dtype=float) for row in np.atleast_2d(np.asarray(x0, dtype=float))]
+    lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
+    starts = list(np.asarray(x0, dtype=float).reshape(-1, len(lower)))    # none: zero rows
     slots = max(1, int(threads) if more is not None else min(int(threads), len(starts)))
     natives = [functions.native(name, slots) for name in ("F", "G", "H")]
     if any(n is None for n in natives):
         return None
     (f_fn, f_buf, f_in, f_out), (g_fn, g_buf, g_in, g_out), (h_fn, h_buf, h_in, h_out) = natives
-    lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
     faces = _faces(len(lower))
 
     def solve(s, t):        # start s on thread slot t (its buffers)

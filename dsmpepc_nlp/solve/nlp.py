@@ -37,8 +37,6 @@ __all__ = ["NlpSolver", "pack_parameters", "GraphSizes", "PARAMETER_NAMES",
            "parameter_shapes"]
 
 
-
-
 @dataclasses.dataclass
 class _Walk:
     """One pattern search of the polish: from ``seed``, at ``z`` of exact ``cost`` after
@@ -94,6 +92,10 @@ class NlpSolver:
         self.spread = box_samples(config, self.solver_config.n_spread, self.solver_config.seed)
         self.screen = box_samples(config, self.solver_config.n_screen,
                                   self.solver_config.seed + 1)
+        # The box starts are the same every cycle: named and stacked once.
+        self._box_starts = ([(f"spread-{i}", z) for i, z in enumerate(self.spread)]
+                            + [(f"screen-{i}", z) for i, z in enumerate(self.screen)])
+        self._box_z = np.vstack([self.spread, self.screen]).reshape(-1, 4)
         self._lam_x = None
         self._seen = set()
         self.last_stats = []
@@ -153,8 +155,8 @@ class NlpSolver:
         named = [(name, np.clip(np.where(np.isfinite(z), z, self.lower), self.lower,
                                 self.upper))
                  for name, z in ((n, np.asarray(z, dtype=float)) for n, z in starts.items())]
-        named += [(f"spread-{i}", z) for i, z in enumerate(self.spread)]
-        named += [(f"screen-{i}", z) for i, z in enumerate(self.screen)]
+        z_named = np.array([z for _, z in named]).reshape(-1, 4)
+        named += self._box_starts
         self.last_stats = []
         problem = self.problem(cycle)
         packed = time.perf_counter()
@@ -164,7 +166,7 @@ class NlpSolver:
 
         def screen(one_thread=False):
             """Cost every start exactly; the records and the starts to solve from."""
-            costs = self._exact(np.array([z for _, z in named]), cycle, one_thread)
+            costs = self._exact(np.vstack([z_named, self._box_z]), cycle, one_thread)
             records.extend(StartRecord(name, z0, z0, "screened", False, 0, 0.0, math.nan,
                                        float(costs[i])) for i, (name, z0) in enumerate(named))
             chosen.extend(self._choose(named, costs))

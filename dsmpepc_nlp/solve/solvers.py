@@ -83,7 +83,7 @@ class NewtonSolver:
             if not listing:
                 listing.append([np.asarray(z0, dtype=float) for z0, _ in more(busy)])
                 z0s.extend(listing[0])
-            return [z0 for z0 in listing[0]]
+            return listing[0]
 
         if self.solver.hessian == "quasi-newton":
             def lent(done, busy):     # the idle thread sees results as the solver gives them
