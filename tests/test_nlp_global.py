@@ -2,6 +2,7 @@
 
 import dataclasses
 import shutil
+import subprocess
 import time
 import warnings
 
@@ -313,3 +314,44 @@ def test_pose_mask_skips_only_pairs_that_cannot_matter(smooth):
         full = [np.array(o) for o in fg(z, *(everywhere[n] for n in g.PARAMETER_NAMES))]
         np.testing.assert_allclose(masked[0], full[0], rtol=0, atol=1e-12)
         np.testing.assert_allclose(masked[1], full[1], rtol=0, atol=1e-12)
+
+
+def _compile_table_reader(folder, fast: bool):
+    """A table look-up and its gradient in the graph's form, compiled with or without the
+    bilinear fast paths (compiled.specialise)."""
+    sizes = g.GraphSizes(max_objects=1, table_cells=16, ray_samples=4)
+    uv, table = ca.MX.sym("uv", 2), ca.MX.sym("table", sizes.table_cells ** 2)
+    value = g.table_lookup(sizes)(uv, table)
+    reader = ca.Function("reader", [uv, table], [value, ca.gradient(value, uv)])
+    generator = ca.CodeGenerator("reader.c", {"with_header": False})
+    generator.add(reader)
+    generator.generate(str(folder) + "/")
+    source = (folder / "reader.c").read_text()
+    if fast:
+        fast_source = compiled.specialise(source)
+        assert fast_source.count("dsmpepc: 2-d") == 2     # both fast paths entered
+        source = fast_source
+    name = "fast" if fast else "generic"
+    (folder / f"{name}.c").write_text(source)
+    subprocess.run([shutil.which("gcc") or shutil.which("cc"), "-shared", "-fPIC", "-O1", "-o",
+                    str(folder / f"{name}.so"), str(folder / f"{name}.c"), "-lm"], check=True)
+    return ca.external("reader", str(folder / f"{name}.so")), reader
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None and shutil.which("cc") is None,
+                    reason="no C compiler")
+def test_bilinear_fast_paths_give_the_generic_codes_bits(tmp_path):
+    fast, reader = _compile_table_reader(tmp_path, True)
+    generic, _ = _compile_table_reader(tmp_path, False)
+    rng = np.random.default_rng(3)
+    table = rng.normal(size=16 * 16)
+    # Inside the grid, on nodes and cell edges, and beyond it (clamped to the edge cells).
+    points = np.vstack([rng.uniform(-3.0, 18.0, (300, 2)),
+                        rng.integers(0, 16, (40, 2)).astype(float),
+                        [[0.0, 0.0], [15.0, 15.0], [15.0, 0.5], [7.5, 15.0]]])
+    for uv in points:
+        mine, theirs = fast(uv, table), generic(uv, table)
+        for a, b in zip(mine, theirs):
+            assert np.array_equal(np.array(a), np.array(b)), uv
+        for a, b in zip(mine, reader(uv, table)):
+            np.testing.assert_allclose(np.array(a), np.array(b), rtol=1e-12, atol=1e-12)
