@@ -227,3 +227,44 @@ def test_long_horizon_sums_like_numpy():
     cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.1, 0.4, 0.0), world, (8.0, 1.0), config)
     z = edge_z(config, np.random.default_rng(3))
     assert_same(evaluate_batch(z, cycle, compiled=True), evaluate_batch(z, cycle, compiled=False))
+
+
+@needs_kernel
+def test_small_batches_on_two_threads_at_once_equal_them_one_after_another():
+    """The serial kernel runs on several threads at once (only the parallel one queues for
+    numba's pool): batches costed side by side equal the same batches costed in turn."""
+    import threading
+
+    occupied = np.zeros((30, 30), bool)
+    occupied[:, 14:16] = True
+    world = World(OccupancyGrid(occupied, 0.1, (-1.5, -1.5)),
+                  [DynamicObstacle.pedestrian((1.0, 0.3), (-0.5, 0.0))])
+    config = PlannerConfig.ds_mpepc()
+    cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0), world, (3.0, 1.0), config)
+    batches = [edge_z(config, np.random.default_rng(seed), 24) for seed in range(8)]
+    alone = [evaluate_batch(z, cycle, parallel_rows=len(z) + 1).costs.total for z in batches]
+    side_by_side = [None] * len(batches)
+    inside = [0]
+    lock = threading.Lock()
+    overlapped = [False]
+
+    def work(indices):
+        for i in indices:
+            with lock:
+                inside[0] += 1
+                overlapped[0] |= inside[0] > 1
+            for _ in range(20):
+                side_by_side[i] = evaluate_batch(batches[i], cycle,
+                                                 parallel_rows=len(batches[i]) + 1).costs.total
+            with lock:
+                inside[0] -= 1
+
+    workers = [threading.Thread(target=work, args=(range(k, len(batches), 2),))
+               for k in range(2)]
+    for worker in workers:
+        worker.start()
+    for worker in workers:
+        worker.join()
+    assert overlapped[0]
+    for a, b in zip(alone, side_by_side):
+        np.testing.assert_array_equal(a, b)

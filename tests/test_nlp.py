@@ -428,3 +428,41 @@ def test_build_prepares_every_object_bucket_of_a_variant():
 
     result = solvers.build(["mpepc"], SolverConfig(pose_object_buckets=(0, 2)))
     assert result["problems"] == 2 and result["compiled"] is False   # virtual machine here
+
+
+@pytest.mark.parametrize("compile_", [False, True], ids=["numpy", "compiled"])
+def test_the_final_polish_shares_its_walks_over_the_threads_and_ends_the_same(monkeypatch,
+                                                                              compile_):
+    """The final polish's walks run on both threads, each walk's rounds on one of them, and
+    every record (the polish's winner included) is the same to the bit as when one thread
+    walks them all in one batch a round."""
+    import threading
+
+    from dsmpepc_nlp.bench.scenes import demo_cycles
+    from dsmpepc_nlp.solve import nlp
+
+    if compile_:
+        _compile_afresh(monkeypatch)
+    walkers = []
+    original = nlp.NlpSolver._walk_rounds
+
+    def seen(self, walks, cycle, one_thread=False):
+        walkers.append((threading.current_thread().name, len(walks)))
+        original(self, walks, cycle, one_thread)
+
+    monkeypatch.setattr(nlp.NlpSolver, "_walk_rounds", seen)
+    knobs = dict(n_spread=2, max_iter=4, n_screen=16, n_solved=3, polish_ahead=False,
+                 polish_starts=4, polish_rounds=4, polish_margin=np.inf, **BUCKETS)
+    shared = NlpSolver(CONFIG, SolverConfig(solve_threads=2, **knobs), SMALL)
+    alone = NlpSolver(CONFIG, SolverConfig(solve_threads=1, **knobs), SMALL)
+    for state, world, goal in demo_cycles(CONFIG, 3, seed=0, n_samples=64):
+        cycle = Cycle.prepare(state, world, goal, CONFIG)
+        starts = structured_starts(state, goal, CONFIG)
+        walkers.clear()
+        one = shared.solve(cycle, starts)
+        assert any(name.startswith("dsmpepc-rows") for name, _ in walkers)
+        assert len(walkers) == 2 and sum(n for _, n in walkers) >= 2
+        walkers.clear()
+        two = alone.solve(cycle, starts)
+        assert len(walkers) == 1
+        _assert_same_records(one, two)

@@ -154,8 +154,12 @@ def evaluate_compiled(z: np.ndarray, cycle, module,
 
 def _run(module, cycle, z, poses, v, omega, target, survival, out, given, parallel_rows):
     k = cycle.kernel_arrays
-    run = module.exact_costs if len(z) >= parallel_rows else module.exact_costs_serial
-    with _LOCK:  # the thread pool takes one launch at a time; threads of one process queue here
+    parallel = len(z) >= parallel_rows
+    run = module.exact_costs if parallel else module.exact_costs_serial
+    # numba's thread pool takes one launch at a time: threads of one process queue here for
+    # it. The serial kernel touches no shared state (it lets go of Python's lock and writes
+    # only its own outputs): threads run it side by side.
+    with _LOCK if parallel else contextlib.nullcontext():
         run(z, cycle.parameters, k["footprint"], k["sdf"], k["nf"], k["predicted"], k["radii"],
             k["velocities"], k["starts"], k["culled_predicted"], k["culled_radii"],
             k["end_centers"], k["end_radii"], k["end_velocities"], poses, v, omega, target,

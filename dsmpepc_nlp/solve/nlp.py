@@ -21,7 +21,7 @@ import time
 import numpy as np
 
 from ..core.config import PlannerConfig, SolverConfig
-from . import nlp_global, solvers
+from . import nlp_global, solvers, threads
 from .nlp_global import PARAMETER_NAMES, GraphSizes, pack_parameters, parameter_shapes
 from .records import StartRecord
 from .sampling import box_samples, evaluate_batch
@@ -305,11 +305,7 @@ class NlpSolver:
             return None
         started = time.perf_counter()
         walks = [self._walk(seed, {} if walks is None else walks) for seed in seeds]
-        while True:
-            active = [w for w in walks if w.rounds < rounds]
-            if not active:
-                break
-            self._rounds(active, cycle)
+        self._finish_walks(walks, cycle)
         winner = min(walks, key=lambda w: w.cost)       # the first of equals, as argmin
         if not winner.cost < best:
             return None
@@ -317,6 +313,42 @@ class NlpSolver:
         return StartRecord("polish", origin.z, winner.z, f"polished '{origin.name}'",
                            any(r.success for r in records), rounds,
                            time.perf_counter() - started, math.nan, winner.cost)
+
+    def _finish_walks(self, walks, cycle) -> None:
+        """Every walk's remaining rounds. With several walks left and ``solve_threads``
+        above 1, the walks are shared out over the threads (most rounds left first, each to
+        the least loaded thread), each thread running its own walks' rounds on its core: a
+        round of 24 polish rows is too small to share one batch over the cores (docs/nlp.md,
+        "Pass 7"), two walks side by side are not. A walk's rounds depend only on its seed
+        and each row is costed as it would be alone, so every walk ends as it would in one
+        batch."""
+        rounds = self.solver_config.polish_rounds
+        left = [w for w in walks if w.rounds < rounds]
+        n_threads = min(self.solver_config.solve_threads, len(left))
+        if n_threads <= 1:
+            self._walk_rounds(left, cycle)
+            return
+        groups, loads = [[] for _ in range(n_threads)], [0] * n_threads
+        for walk in sorted(left, key=lambda w: w.rounds):
+            lightest = loads.index(min(loads))
+            groups[lightest].append(walk)
+            loads[lightest] += rounds - walk.rounds
+        others = [threads.helpers(n_threads - 1).submit(self._walk_rounds, group, cycle, True)
+                  for group in groups[1:]]
+        try:
+            self._walk_rounds(groups[0], cycle, True)
+        finally:
+            for future in others:
+                future.result()
+
+    def _walk_rounds(self, walks, cycle, one_thread=False) -> None:
+        """Rounds of ``walks`` (in one exact batch each) until every one has had its
+        ``polish_rounds``."""
+        while True:
+            active = [w for w in walks if w.rounds < self.solver_config.polish_rounds]
+            if not active:
+                return
+            self._rounds(active, cycle, one_thread)
 
     def _run(self, problem, named, idle=None, more=None) -> list:
         """The solves from every ``(name, z0)`` of ``named`` and then of ``more(busy)`` (the

@@ -25,6 +25,16 @@ def pool(threads: int) -> ThreadPoolExecutor:
     return _POOLS[key]
 
 
+def helpers(threads: int) -> ThreadPoolExecutor:
+    """This process's pool of ``threads`` helper threads for parts of one exact batch (a
+    pool of its own: the solve threads may be the ones asking, and must not wait for
+    themselves)."""
+    key = (os.getpid(), "helpers", threads)
+    if key not in _POOLS:
+        _POOLS[key] = ThreadPoolExecutor(threads, thread_name_prefix="dsmpepc-rows")
+    return _POOLS[key]
+
+
 def run_starts(solve, n: int, slots: int, idle=None, more=None) -> list:
     """``[solve(i, slot) for i in range(n)]`` on ``slots`` threads, each thread (``slot``)
     taking the next ``i`` when it is free; in order of ``i``.
@@ -94,4 +104,4 @@ def run_starts(solve, n: int, slots: int, idle=None, more=None) -> list:
     return results
 
 
-__all__ = ["pool", "run_starts"]
+__all__ = ["helpers", "pool", "run_starts"]
