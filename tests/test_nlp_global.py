@@ -355,3 +355,57 @@ def test_bilinear_fast_paths_give_the_generic_codes_bits(tmp_path):
             assert np.array_equal(np.array(a), np.array(b)), uv
         for a, b in zip(mine, reader(uv, table)):
             np.testing.assert_allclose(np.array(a), np.array(b), rtol=1e-12, atol=1e-12)
+
+
+def _pack_obstacles_one_by_one(cycle, sizes, k_max, reach_only):
+    """pack_obstacles as a loop over the objects (its earlier form): the reference."""
+    c_obj = sizes.circles_per_object
+    circles = np.tile([g.FAR, g.FAR, 0.1], (k_max * c_obj, 1))
+    velocities, indices = np.zeros((k_max, 2)), np.full(k_max * c_obj, -1)
+    owner = cycle.owner
+    gap = np.min(np.linalg.norm(cycle.predicted - [cycle.state.x, cycle.state.y], axis=-1),
+                 axis=0) - cycle.radii
+    per_object = np.full(int(owner.max()) + 1, np.inf)
+    np.minimum.at(per_object, owner, gap)
+    candidates = np.argsort(per_object, kind="stable")
+    if reach_only:
+        candidates = candidates[np.asarray(cycle.in_reach, dtype=bool)[candidates]]
+    for slot, index in enumerate(candidates[:k_max]):
+        mine = np.flatnonzero(owner == index)
+        near = mine[np.argsort(gap[mine], kind="stable")[:c_obj]]
+        near = np.r_[near, np.repeat(near[:1], c_obj - len(near))]
+        circles[slot * c_obj:(slot + 1) * c_obj] = np.column_stack(
+            [cycle.centers[near], cycle.radii[near]])
+        velocities[slot] = cycle.velocities[near[0]]
+        indices[slot * c_obj:(slot + 1) * c_obj] = near
+    return circles, velocities, indices
+
+
+def test_packed_objects_are_the_nearest_circles_of_the_nearest_objects():
+    """Robots of several circles (equal gaps among them) and pedestrians, more and fewer
+    objects than slots, one to three circles per slot: the vectorised packing equals the
+    loop over objects to the bit."""
+    from dsmpepc_nlp.core.config import RobotState
+    from dsmpepc_nlp.core.world import DynamicObstacle, World
+
+    rng = np.random.default_rng(5)
+    footprint = ((0.2, 0.0, 0.2), (-0.2, 0.0, 0.2), (0.0, 0.0, 0.2))
+    obstacles = []
+    for _ in range(9):
+        x, y = rng.uniform(-4.0, 4.0, 2)
+        if rng.random() < 0.5:
+            obstacles.append(DynamicObstacle.robot((x, y, rng.uniform(-3, 3)),
+                                                   tuple(rng.uniform(-0.5, 0.5, 2)), footprint))
+        else:
+            obstacles.append(DynamicObstacle.pedestrian((x, y), tuple(rng.uniform(-1, 1, 2))))
+    cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.3), World(None, obstacles), (3.0, 1.0),
+                          CONFIG)
+    assert len(cycle.owner) > len(obstacles)            # some objects have several circles
+    for c_obj in (1, 2, 3, 4):
+        sizes = dataclasses.replace(g.GraphSizes(), circles_per_object=c_obj)
+        for k_max in (1, 4, 9, 12):
+            for reach_only in (False, True):
+                mine = g.pack_obstacles(cycle, sizes, k_max, reach_only)
+                theirs = _pack_obstacles_one_by_one(cycle, sizes, k_max, reach_only)
+                for a, b in zip(mine, theirs):
+                    np.testing.assert_array_equal(a, b)

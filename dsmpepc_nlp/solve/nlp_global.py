@@ -547,15 +547,19 @@ def pack_obstacles(cycle, sizes: GraphSizes, k_max: int | None = None,
     if reach_only:
         reach = np.asarray(cycle.in_reach, dtype=bool)[:n_obj]
         candidates = candidates[reach[candidates]]
-    for slot, index in enumerate(candidates[:k_max]):
-        mine = np.flatnonzero(owner == index)
-        near = mine[np.argsort(gap[mine], kind="stable")[:c_obj]]
-        # Padding circles repeat the nearest one: the min over circles is unchanged.
-        near = np.r_[near, np.repeat(near[:1], c_obj - len(near))]
-        circles[slot * c_obj:(slot + 1) * c_obj] = np.column_stack(
-            [cycle.centers[near], cycle.radii[near]])
-        velocities[slot] = cycle.velocities[near[0]]
-        indices[slot * c_obj:(slot + 1) * c_obj] = near
+    count = np.bincount(owner, minlength=n_obj)
+    chosen = candidates[count[candidates] > 0][:k_max]
+    # Each object's circles nearest first (ties by index: a stable sort by owner, then gap),
+    # the first c_obj of each chosen object; padding circles repeat the nearest one (the min
+    # over circles is unchanged). Vectorised: a loop over objects took ~0.3 ms a plan.
+    order = np.lexsort((gap, owner))
+    first = np.searchsorted(owner[order], chosen)
+    column = np.arange(c_obj)
+    near = order[first[:, None] + np.where(column < count[chosen][:, None], column, 0)]
+    flat, m = near.reshape(-1), near.size
+    circles[:m] = np.column_stack([cycle.centers[flat], cycle.radii[flat]])
+    velocities[:len(chosen)] = cycle.velocities[near[:, 0]]
+    indices[:m] = flat
     return circles, velocities, indices
 
 
