@@ -213,9 +213,6 @@ def test_the_polish_leaves_out_candidates_trailing_the_best_by_more_than_its_mar
 
     state, world, goal = _demo_cycle()
     cycle = Cycle.prepare(state, world, goal, CONFIG)
-    solver = NlpSolver(CONFIG, SolverConfig.fast(polish_margin=margin, polish_starts=5,
-                                                 polish_rounds=2, parallel_rows=7, **BUCKETS),
-                       SMALL)
     zs = [[2.0, 0.0, 0.0, 0.5], [3.0, 0.5, -0.5, 0.8], [1.0, -0.5, 0.5, 0.3]]
     records = [StartRecord(name, np.array(z), np.array(z), "screened", False, 0, 0.0, np.nan,
                            cost) for name, z, cost in zip("abc", zs, (-1.0, -0.5, 2.0))]
@@ -223,13 +220,22 @@ def test_the_polish_leaves_out_candidates_trailing_the_best_by_more_than_its_mar
     original = nlp.evaluate_batch
 
     def counted(z, cycle_, **options):
-        batches.append(len(z))
-        assert options["parallel_rows"] == 7          # the configuration's, not the default
+        batches.append((len(z), options["parallel_rows"]))
         return original(z, cycle_, **options)
 
     monkeypatch.setattr(nlp, "evaluate_batch", counted)
-    solver._polish(records, cycle)
-    assert batches == [seeds * len(nlp._NEIGHBOURS)] * 2
+    rows = len(nlp._NEIGHBOURS)
+    for threads in (1, 2):
+        solver = NlpSolver(CONFIG, SolverConfig.fast(
+            polish_margin=margin, polish_starts=5, polish_rounds=2, parallel_rows=7,
+            solve_threads=threads, **BUCKETS), SMALL)
+        batches.clear()
+        solver._polish(records, cycle)
+        if threads == 1 or seeds == 1:      # one batch a round, with the configuration's
+            assert batches == [(seeds * rows, 7)] * 2       # parallel_rows, not the default
+        else:                       # the walks shared out over both threads, one core each
+            assert len(batches) == 2 * 2 and sum(n for n, _ in batches) == 2 * seeds * rows
+            assert all(n % rows == 0 and one == n + 1 for n, one in batches)
 
 
 def _assert_same_records(one, two):
