@@ -409,3 +409,24 @@ def test_packed_objects_are_the_nearest_circles_of_the_nearest_objects():
                 theirs = _pack_obstacles_one_by_one(cycle, sizes, k_max, reach_only)
                 for a, b in zip(mine, theirs):
                     np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None and shutil.which("cc") is None,
+                    reason="no C compiler")
+def test_a_compiler_without_the_extra_options_still_compiles(tmp_path, monkeypatch):
+    """Options the compiler refuses fall back to plain -O2, not to the virtual machine."""
+    monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("DSMPEPC_NO_COMPILE", raising=False)
+    cost, n_params, step = _small_functions()
+    functions = compiled.problem_functions(cost, n_params, step)
+    library = compiled.compile_library(functions, "refused_option",
+                                       flags=("-O2", "--no-such-option-for-any-compiler"))
+    assert library is not None and library.exists()
+    loaded = compiled.Compiled(functions, library)
+    machine = compiled.Compiled(functions, None)
+    p = _small_parameters()
+    loaded.bind(p)
+    machine.bind(p)
+    z = _random_z(SMALL_CONFIG, 1, 2)[0]
+    np.testing.assert_allclose(loaded.call("G", z)[1], machine.call("G", z)[1], rtol=1e-9,
+                               atol=1e-9)
