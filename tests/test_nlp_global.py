@@ -95,17 +95,25 @@ def _small_functions():
     return cost, cost.size1_in(1), 1e-6 * span
 
 
+needs_compiler = pytest.mark.skipif(shutil.which("gcc") is None and shutil.which("cc") is None,
+                                    reason="no C compiler")
+
+
+def _compile_into(tmp_path, monkeypatch):
+    """Compiled libraries go to ``tmp_path`` (a fresh cache), compilation on."""
+    monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("DSMPEPC_NO_COMPILE", raising=False)
+
+
 def _small_parameters():
     state, world, goal = _demo()
     cycle = Cycle.prepare(state, world, goal, SMALL_CONFIG)
     return g.flatten_parameters(g.pack_parameters(cycle, SMALL_SIZES))
 
 
-@pytest.mark.skipif(shutil.which("gcc") is None and shutil.which("cc") is None,
-                    reason="no C compiler")
+@needs_compiler
 def test_compiled_functions_equal_the_virtual_machine_and_are_cached(tmp_path, monkeypatch):
-    monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
-    monkeypatch.delenv("DSMPEPC_NO_COMPILE", raising=False)
+    _compile_into(tmp_path, monkeypatch)
     cost, n_params, step = _small_functions()
     built = compiled.build(cost, n_params, step, (SMALL_CONFIG, SMALL_SIZES))
     assert built.compiled
@@ -132,8 +140,7 @@ def test_compiled_functions_equal_the_virtual_machine_and_are_cached(tmp_path, m
     assert len(list((tmp_path).rglob("*.so"))) == 1
 
 
-@pytest.mark.skipif(shutil.which("gcc") is None and shutil.which("cc") is None,
-                    reason="no C compiler")
+@needs_compiler
 def test_compiled_newton_loop_takes_the_python_loops_steps(tmp_path, monkeypatch):
     """The trust-region loop in compiled code (calling the generated functions itself) is
     the Python loop with the SR1 Hessian: same iterations, evaluations, status and point
@@ -141,8 +148,7 @@ def test_compiled_newton_loop_takes_the_python_loops_steps(tmp_path, monkeypatch
     from dsmpepc_nlp.core.config import SolverConfig
     from dsmpepc_nlp.solve import newton, solvers
 
-    monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
-    monkeypatch.delenv("DSMPEPC_NO_COMPILE", raising=False)
+    _compile_into(tmp_path, monkeypatch)
     problem = solvers.Problem(SMALL_CONFIG, SMALL_SIZES, SolverConfig())
     assert problem.functions.compiled
     problem.bind(_small_parameters())
@@ -338,8 +344,7 @@ def _compile_table_reader(folder, fast: bool):
     return ca.external("reader", str(folder / f"{name}.so")), reader
 
 
-@pytest.mark.skipif(shutil.which("gcc") is None and shutil.which("cc") is None,
-                    reason="no C compiler")
+@needs_compiler
 def test_bilinear_fast_paths_give_the_generic_codes_bits(tmp_path):
     fast, reader = _compile_table_reader(tmp_path, True)
     generic, _ = _compile_table_reader(tmp_path, False)
@@ -411,12 +416,10 @@ def test_packed_objects_are_the_nearest_circles_of_the_nearest_objects():
                     np.testing.assert_array_equal(a, b)
 
 
-@pytest.mark.skipif(shutil.which("gcc") is None and shutil.which("cc") is None,
-                    reason="no C compiler")
+@needs_compiler
 def test_a_compiler_without_the_extra_options_still_compiles(tmp_path, monkeypatch):
     """Options the compiler refuses fall back to plain -O2, not to the virtual machine."""
-    monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
-    monkeypatch.delenv("DSMPEPC_NO_COMPILE", raising=False)
+    _compile_into(tmp_path, monkeypatch)
     cost, n_params, step = _small_functions()
     functions = compiled.problem_functions(cost, n_params, step)
     library = compiled.compile_library(functions, "refused_option",
