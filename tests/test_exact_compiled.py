@@ -268,3 +268,36 @@ def test_small_batches_on_two_threads_at_once_equal_them_one_after_another():
     assert overlapped[0]
     for a, b in zip(alone, side_by_side):
         np.testing.assert_array_equal(a, b)
+
+
+@needs_kernel
+def test_only_the_parallel_kernel_queues_for_the_thread_pool():
+    """While the pool's lock is held elsewhere, a small batch (the serial kernel) still runs
+    and a large one (the parallel kernel) waits for the lock."""
+    import threading
+
+    occupied = np.zeros((30, 30), bool)
+    occupied[:, 14:16] = True
+    world = World(OccupancyGrid(occupied, 0.1, (-1.5, -1.5)),
+                  [DynamicObstacle.pedestrian((1.0, 0.3), (-0.5, 0.0))])
+    config = PlannerConfig.ds_mpepc()
+    cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0), world, (3.0, 1.0), config)
+    z = edge_z(config, np.random.default_rng(4), 24)
+    expected = evaluate_batch(z, cycle, parallel_rows=len(z) + 1).costs.total
+    results = {}
+
+    def batch(name, rows):
+        results[name] = evaluate_batch(z, cycle, parallel_rows=rows).costs.total
+
+    with exact._LOCK:
+        serial = threading.Thread(target=batch, args=("serial", len(z) + 1))
+        parallel = threading.Thread(target=batch, args=("parallel", 1))
+        serial.start()
+        parallel.start()
+        serial.join(timeout=20.0)
+        assert not serial.is_alive()            # ran although the lock was held
+        parallel.join(timeout=0.5)
+        assert parallel.is_alive()              # waits for the lock
+    parallel.join(timeout=60.0)
+    np.testing.assert_array_equal(results["serial"], expected)
+    np.testing.assert_array_equal(results["parallel"], expected)

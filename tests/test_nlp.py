@@ -466,7 +466,7 @@ def test_the_final_polish_shares_its_walks_over_the_threads_and_ends_the_same(mo
         starts = structured_starts(state, goal, CONFIG)
         walkers.clear()
         one = shared.solve(cycle, starts)
-        assert any(name.startswith("dsmpepc-rows") for name, _ in walkers)
+        assert any(name.startswith("dsmpepc-walks") for name, _ in walkers)
         assert len(walkers) == 2 and sum(n for _, n in walkers) >= 2
         walkers.clear()
         two = alone.solve(cycle, starts)

@@ -333,8 +333,8 @@ class NlpSolver:
             lightest = loads.index(min(loads))
             groups[lightest].append(walk)
             loads[lightest] += rounds - walk.rounds
-        others = [threads.helpers(n_threads - 1).submit(self._walk_rounds, group, cycle, True)
-                  for group in groups[1:]]
+        others = [threads.pool(n_threads - 1, "walks").submit(self._walk_rounds, group, cycle,
+                                                              True) for group in groups[1:]]
         try:
             self._walk_rounds(groups[0], cycle, True)
         finally:

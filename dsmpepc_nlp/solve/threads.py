@@ -16,22 +16,14 @@ from concurrent.futures import ThreadPoolExecutor
 _POOLS = {}
 
 
-def pool(threads: int) -> ThreadPoolExecutor:
-    """This process's pool of ``threads`` threads, made once (a forked child makes its own:
-    a parent's pool threads do not exist there)."""
-    key = (os.getpid(), threads)
+def pool(threads: int, kind: str = "solve") -> ThreadPoolExecutor:
+    """This process's pool of ``threads`` threads of one ``kind``, made once (a forked child
+    makes its own: a parent's pool threads do not exist there). ``"solve"``: a plan's starts
+    (:func:`run_starts`); ``"walks"``: the polish's walks beside the calling thread, a pool of
+    its own so that a solve thread asking for one never waits for itself."""
+    key = (os.getpid(), kind, threads)
     if key not in _POOLS:
-        _POOLS[key] = ThreadPoolExecutor(threads, thread_name_prefix="dsmpepc-solve")
-    return _POOLS[key]
-
-
-def helpers(threads: int) -> ThreadPoolExecutor:
-    """This process's pool of ``threads`` helper threads for parts of one exact batch (a
-    pool of its own: the solve threads may be the ones asking, and must not wait for
-    themselves)."""
-    key = (os.getpid(), "helpers", threads)
-    if key not in _POOLS:
-        _POOLS[key] = ThreadPoolExecutor(threads, thread_name_prefix="dsmpepc-rows")
+        _POOLS[key] = ThreadPoolExecutor(threads, thread_name_prefix=f"dsmpepc-{kind}")
     return _POOLS[key]
 
 
@@ -104,4 +96,4 @@ def run_starts(solve, n: int, slots: int, idle=None, more=None) -> list:
     return results
 
 
-__all__ = ["helpers", "pool", "run_starts"]
+__all__ = ["pool", "run_starts"]
