@@ -229,18 +229,23 @@ def test_long_horizon_sums_like_numpy():
     assert_same(evaluate_batch(z, cycle, compiled=True), evaluate_batch(z, cycle, compiled=False))
 
 
+def _wall_and_pedestrian():
+    """``(config, cycle)``: DS-MPEPC beside a wall with one pedestrian."""
+    occupied = np.zeros((30, 30), bool)
+    occupied[:, 14:16] = True
+    world = World(OccupancyGrid(occupied, 0.1, (-1.5, -1.5)),
+                  [DynamicObstacle.pedestrian((1.0, 0.3), (-0.5, 0.0))])
+    config = PlannerConfig.ds_mpepc()
+    return config, Cycle.prepare(RobotState(0.0, 0.0, 0.0), world, (3.0, 1.0), config)
+
+
 @needs_kernel
 def test_small_batches_on_two_threads_at_once_equal_them_one_after_another():
     """The serial kernel runs on several threads at once (only the parallel one queues for
     numba's pool): batches costed side by side equal the same batches costed in turn."""
     import threading
 
-    occupied = np.zeros((30, 30), bool)
-    occupied[:, 14:16] = True
-    world = World(OccupancyGrid(occupied, 0.1, (-1.5, -1.5)),
-                  [DynamicObstacle.pedestrian((1.0, 0.3), (-0.5, 0.0))])
-    config = PlannerConfig.ds_mpepc()
-    cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0), world, (3.0, 1.0), config)
+    config, cycle = _wall_and_pedestrian()
     batches = [edge_z(config, np.random.default_rng(seed), 24) for seed in range(8)]
     alone = [evaluate_batch(z, cycle, parallel_rows=len(z) + 1).costs.total for z in batches]
     side_by_side = [None] * len(batches)
@@ -276,12 +281,7 @@ def test_only_the_parallel_kernel_queues_for_the_thread_pool():
     and a large one (the parallel kernel) waits for the lock."""
     import threading
 
-    occupied = np.zeros((30, 30), bool)
-    occupied[:, 14:16] = True
-    world = World(OccupancyGrid(occupied, 0.1, (-1.5, -1.5)),
-                  [DynamicObstacle.pedestrian((1.0, 0.3), (-0.5, 0.0))])
-    config = PlannerConfig.ds_mpepc()
-    cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0), world, (3.0, 1.0), config)
+    config, cycle = _wall_and_pedestrian()
     z = edge_z(config, np.random.default_rng(4), 24)
     expected = evaluate_batch(z, cycle, parallel_rows=len(z) + 1).costs.total
     results = {}
