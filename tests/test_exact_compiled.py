@@ -29,7 +29,7 @@ from dsmpepc_nlp.core.config import (
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 from dsmpepc_nlp.solve import exact
 from dsmpepc_nlp.solve.cycle import PARAMETERS, Cycle
-from dsmpepc_nlp.solve.sampling import evaluate_batch
+from dsmpepc_nlp.solve.sampling import evaluate_batch, exact_totals
 
 needs_kernel = pytest.mark.skipif(exact.kernel() is None,
                                   reason="compiled evaluator off (numba missing or "
@@ -107,8 +107,13 @@ def cycles(draw):
 def test_compiled_equals_numpy_on_random_cycles(case):
     cycle, z = case
     reference = evaluate_batch(z, cycle, compiled=False)
-    assert_same(evaluate_batch(z, cycle, compiled=True), reference)            # one thread
+    compiled = evaluate_batch(z, cycle, compiled=True)
+    assert_same(compiled, reference)            # one thread
     assert_same(evaluate_batch(z, cycle, compiled=True, parallel_rows=1), reference)  # all
+    # The totals alone (the multistart's path) are the full evaluation's, to the bit.
+    np.testing.assert_array_equal(exact_totals(z, cycle), compiled.costs.total)
+    np.testing.assert_array_equal(exact_totals(z, cycle, parallel_rows=1),
+                                  compiled.costs.total)
 
 
 @needs_kernel
@@ -138,6 +143,64 @@ def test_min_distance_reaches_culled_objects():
     compiled = evaluate_batch(z, cycle, compiled=True)
     assert_same(compiled, evaluate_batch(z, cycle, compiled=False))
     assert np.all(compiled.costs.min_distance < 30.0)
+
+
+class _MarksFragile:
+    """The compiled kernel, with the rows ``rows`` of every first pass marked fragile (a
+    rollout passing the law's discontinuity is too rare to draw at random) and their first
+    pass's outputs spoilt (NaN): only the redone pass may reach the caller."""
+
+    def __init__(self, module, rows):
+        self.module, self.rows = module, rows
+        self.OUT, self.numba = module.OUT, module.numba
+
+    def _marked(self, run):
+        def call(z, *args):
+            run(z, *args)
+            out, given = args[-3], args[-2]
+            if not given:
+                marked = [i for i in self.rows if i < len(z)]
+                out[marked] = np.nan
+                out[marked, self.OUT.index("fragile")] = 1.0
+        return call
+
+    def __getattr__(self, name):
+        return self._marked(getattr(self.module, name))
+
+
+@needs_kernel
+def test_totals_alone_redo_fragile_rows_like_the_full_evaluation():
+    """``exact.total_costs`` costs fragile rows as ``evaluate_compiled`` does (the reference
+    rollout, costed again), so the multistart's totals are the full evaluation's to the bit."""
+    occupied = np.zeros((30, 30), bool)
+    occupied[:, 20:22] = True
+    world = World(OccupancyGrid(occupied, 0.1, (-1.5, -1.5)),
+                  [DynamicObstacle.pedestrian((1.0, 0.4), (-0.5, 0.0))])
+    cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0, 0.5, 0.2), world, (2.0, 1.0),
+                          PlannerConfig())
+    z = edge_z(cycle.config, np.random.default_rng(5), 40)
+    plain = exact.total_costs(z, cycle, exact.kernel())
+    stub = _MarksFragile(exact.kernel(), rows=(0, 7, 30, len(z) - 1))
+    for rows in (len(z) + 1, 1):                                # one thread, every core
+        totals = exact.total_costs(z, cycle, stub, rows)
+        full = exact.evaluate_compiled(z, cycle, stub, rows)[1].total
+        np.testing.assert_array_equal(totals, full)
+        # The redone rows went the reference's way (not the spoilt first pass); the others
+        # are untouched.
+        np.testing.assert_array_equal(np.delete(totals, stub.rows), np.delete(plain, stub.rows))
+        np.testing.assert_allclose(totals[list(stub.rows)], plain[list(stub.rows)],
+                                   rtol=1e-9, atol=1e-9)
+
+
+def test_totals_alone_on_the_numpy_path_are_its_totals():
+    """Without the kernel, ``exact_totals`` is the numpy reference's total, chunked or not."""
+    cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0), World(obstacles=[
+        DynamicObstacle.pedestrian((1.5, 0.2), (-0.5, 0.0))]), (3.0, 0.0), PlannerConfig())
+    z = edge_z(cycle.config, np.random.default_rng(6))
+    with exact.numpy_only():
+        reference = evaluate_batch(z, cycle).costs.total
+        np.testing.assert_array_equal(exact_totals(z, cycle), reference)
+        np.testing.assert_array_equal(exact_totals(z, cycle, pair_budget=50), reference)
 
 
 def test_out_of_box_speed_runs_the_reference():

@@ -217,13 +217,13 @@ def test_the_polish_leaves_out_candidates_trailing_the_best_by_more_than_its_mar
     records = [StartRecord(name, np.array(z), np.array(z), "screened", False, 0, 0.0, np.nan,
                            cost) for name, z, cost in zip("abc", zs, (-1.0, -0.5, 2.0))]
     batches = []
-    original = nlp.evaluate_batch
+    original = nlp.exact_totals
 
     def counted(z, cycle_, **options):
         batches.append((len(z), options["parallel_rows"]))
         return original(z, cycle_, **options)
 
-    monkeypatch.setattr(nlp, "evaluate_batch", counted)
+    monkeypatch.setattr(nlp, "exact_totals", counted)
     rows = len(nlp._NEIGHBOURS)
     for threads in (1, 2):
         solver = NlpSolver(CONFIG, SolverConfig.fast(

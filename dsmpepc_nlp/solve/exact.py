@@ -152,6 +152,28 @@ def evaluate_compiled(z: np.ndarray, cycle, module,
     return Trajectory(z, poses, v, omega, target), costs
 
 
+def total_costs(z: np.ndarray, cycle, module, parallel_rows: int = 64) -> np.ndarray:
+    """The exact total cost of every row of ``z`` (n, 4): ``evaluate_compiled(...)[1].total``
+    to the bit, without building the trajectories and the breakdown.
+
+    The multistart's screen, verdicts and polish read the totals alone, and a polish round is
+    24 rows: there the breakdown's copies and objects cost as much as a fifth of the kernel
+    (docs/nlp.md, "Pass 10"). Fragile rows are costed by :func:`evaluate_compiled`, which redoes
+    them with the reference rollout, so both paths give each row the same value.
+    """
+    z = np.array(z, dtype=float, order="C")
+    n, n_steps = z.shape[0], cycle.config.horizon.n_steps
+    out = np.empty((n, len(module.OUT)))
+    _run(module, cycle, z, np.empty((n, n_steps + 1, 3)), np.empty((n, n_steps)),
+         np.empty((n, n_steps)), np.empty((n, 3)), np.empty((n, n_steps + 1)), out, False,
+         parallel_rows)
+    total = out[:, module.OUT.index("total")].copy()
+    fragile = np.flatnonzero(out[:, module.OUT.index("fragile")])
+    if fragile.size:
+        total[fragile] = evaluate_compiled(z[fragile], cycle, module, parallel_rows)[1].total
+    return total
+
+
 def _run(module, cycle, z, poses, v, omega, target, survival, out, given, parallel_rows):
     k = cycle.kernel_arrays
     parallel = len(z) >= parallel_rows

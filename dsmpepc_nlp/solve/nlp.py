@@ -24,7 +24,7 @@ from ..core.config import PlannerConfig, SolverConfig
 from . import nlp_global, solvers, threads
 from .nlp_global import PARAMETER_NAMES, GraphSizes, pack_parameters, parameter_shapes
 from .records import StartRecord
-from .sampling import box_samples, evaluate_batch
+from .sampling import box_samples, exact_totals
 
 _NEIGHBOURS = np.array([d for d in itertools.product((-1.0, 0.0, 1.0), repeat=4)
                         if sum(map(abs, d)) in (1, 4)])
@@ -145,7 +145,7 @@ class NlpSolver:
         -------
         list of StartRecord
             In the order of ``starts``, the spread starts, then the screening samples, each
-            with its ``exact_cost`` (from :func:`~dsmpepc_nlp.solve.sampling.evaluate_batch`).
+            with its ``exact_cost`` (from :func:`~dsmpepc_nlp.solve.sampling.exact_totals`).
             Starts the NLP did not run from have status ``screened``, ``nit`` 0 and
             ``z = z0`` (a candidate like any other: the plan is never worse than the best
             start). Solver trouble never raises: the record has ``success=False`` and a
@@ -226,7 +226,7 @@ class NlpSolver:
         a batch uses every core; ``one_thread``: never, for the batches run ahead while the
         other core solves)."""
         rows = len(z) + 1 if one_thread else self.solver_config.parallel_rows
-        return evaluate_batch(z, cycle, parallel_rows=rows).costs.total
+        return exact_totals(z, cycle, parallel_rows=rows)
 
     def _verdicts(self, records, cycle, one_thread=False) -> None:
         """Cost the solved records exactly, in place (one exact batch; every row is costed

@@ -96,11 +96,32 @@ def evaluate_batch(z, cycle: Cycle, compiled: bool | None = None,
     :class:`Evaluation` (to 1e-9, held by tests).
     """
     z = np.atleast_2d(np.asarray(z, dtype=float))
-    module = exact.kernel() if compiled is not False else None
-    if module is not None and z.ndim == 2 and z.shape[1:] == (4,) and exact.inside_reach(z, cycle):
+    module = _compiled_for(z, cycle, compiled)
+    if module is not None:
         trajectories, costs = exact.evaluate_compiled(z, cycle, module, parallel_rows)
         return Evaluation(z, trajectories, costs)
     return _evaluate_numpy(z, cycle, pair_budget)
+
+
+def exact_totals(z, cycle: Cycle, parallel_rows: int = SolverConfig.parallel_rows,
+                 pair_budget: int = PAIR_BUDGET) -> np.ndarray:
+    """The exact total cost of every row of ``z`` (n, 4): ``evaluate_batch(...).costs.total``
+    to the bit, without the rollouts and the breakdown when the compiled kernel runs
+    (:func:`~dsmpepc_nlp.solve.exact.total_costs`)."""
+    z = np.atleast_2d(np.asarray(z, dtype=float))
+    module = _compiled_for(z, cycle, None)
+    if module is not None:
+        return exact.total_costs(z, cycle, module, parallel_rows)
+    return _evaluate_numpy(z, cycle, pair_budget).costs.total
+
+
+def _compiled_for(z: np.ndarray, cycle: Cycle, compiled: bool | None):
+    """The compiled kernel when it runs ``z`` (2-d, 4 columns, inside the reach the cycle's
+    culling rests on) and ``compiled`` is not False, else None (the numpy reference)."""
+    module = exact.kernel() if compiled is not False else None
+    if module is not None and z.ndim == 2 and z.shape[1:] == (4,) and exact.inside_reach(z, cycle):
+        return module
+    return None
 
 
 def _evaluate_numpy(z, cycle: Cycle, pair_budget: int) -> Evaluation:
