@@ -49,13 +49,7 @@ def ipopt_options(solver: SolverConfig, warm: bool) -> dict:
                     # The limited-memory Hessian's augmented system solved as one extended
                     # system instead of by Sherman-Morrison backsolves: the same steps to
                     # rounding, ~2 ms less of IPOPT's own time per solve (docs/nlp.md, "Pass 5").
-                    "ipopt.limited_memory_aug_solver": "extended",
-                    # IPOPT refines every linear solve at least once by default (a residual
-                    # and another MUMPS backsolve); here it refines only when the residual
-                    # test asks for it. On these small systems that saves ~7 % of IPOPT's own
-                    # time an iteration, with the same iteration counts and objectives within
-                    # 5e-6 of the refined ones (docs/nlp.md, "Pass 10").
-                    "ipopt.min_refinement_steps": 0})
+                    "ipopt.limited_memory_aug_solver": "extended"})
     if solver.hessian == "quasi-newton":
         options["ipopt.hessian_approximation"] = "limited-memory"
     if warm:
