@@ -219,8 +219,11 @@ def test_the_polish_leaves_out_candidates_trailing_the_best_by_more_than_its_mar
     batches = []
     original = nlp.exact_totals
 
+    budgets = set()
+
     def counted(z, cycle_, **options):
         batches.append((len(z), options["parallel_rows"]))
+        budgets.add(options["pair_budget"])     # the numpy path's chunks: the configuration's
         return original(z, cycle_, **options)
 
     monkeypatch.setattr(nlp, "exact_totals", counted)
@@ -228,9 +231,10 @@ def test_the_polish_leaves_out_candidates_trailing_the_best_by_more_than_its_mar
     for threads in (1, 2):
         solver = NlpSolver(CONFIG, SolverConfig.fast(
             polish_margin=margin, polish_starts=5, polish_rounds=2, parallel_rows=7,
-            solve_threads=threads, **BUCKETS), SMALL)
+            pair_budget=123_456, solve_threads=threads, **BUCKETS), SMALL)
         batches.clear()
         solver._polish(records, cycle)
+        assert budgets == {123_456}
         if threads == 1 or seeds == 1:      # one batch a round, with the configuration's
             assert batches == [(seeds * rows, 7)] * 2       # parallel_rows, not the default
         else:                       # the walks shared out over both threads, one core each

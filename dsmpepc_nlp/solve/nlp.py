@@ -232,9 +232,10 @@ class NlpSolver:
     def _exact(self, z, cycle, one_thread=False) -> np.ndarray:
         """Exact total costs of the rows of ``z`` (``SolverConfig.parallel_rows`` decides when
         a batch uses every core; ``one_thread``: never, for the batches run ahead while the
-        other core solves)."""
+        other core solves; ``SolverConfig.pair_budget``: the chunks of the numpy path)."""
         rows = len(z) + 1 if one_thread else self.solver_config.parallel_rows
-        return exact_totals(z, cycle, parallel_rows=rows)
+        return exact_totals(z, cycle, parallel_rows=rows,
+                            pair_budget=self.solver_config.pair_budget)
 
     def _verdicts(self, records, cycle, one_thread=False) -> None:
         """Cost the solved records exactly, in place (one exact batch; every row is costed
