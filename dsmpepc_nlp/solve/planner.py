@@ -192,8 +192,8 @@ class Planner:
         """Exact cost of every start's result: the verdict on the NLP.
 
         Records that arrive with a finite ``exact_cost`` (the NLP solver costs its screened
-        starts and results with :func:`~dsmpepc_nlp.solve.sampling.exact_totals`, the same totals as
-        :func:`evaluate_batch`) are not costed twice.
+        starts and results with :func:`~dsmpepc_nlp.solve.sampling.exact_totals`, the totals
+        of :func:`evaluate_batch`) are not costed twice.
         """
         records = [r for r in original if not math.isfinite(r.exact_cost)]
         finite = [r for r in records if np.all(np.isfinite(r.z))]
