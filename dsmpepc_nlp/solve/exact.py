@@ -122,6 +122,33 @@ def evaluate_compiled(z: np.ndarray, cycle, module,
     ``_exact_kernel.FRAGILE_ANGLE``) are redone with the numpy reference and costed again, so
     both paths follow the same branch there.
     """
+    z, poses, v, omega, target, survival, out = _kernel_pass(z, cycle, module, parallel_rows)
+    columns = dict(zip(module.OUT, out.T))
+    with np.errstate(divide="ignore"):
+        costs = CostBreakdown(
+            columns["total"].copy(),
+            {name: columns[name].copy() for name in
+             ("progress", "action", "collision", "heading", "terminal")},
+            survival, columns["min_distance"].copy(), 1.0 / columns["inv_ttg"],
+            1.0 / columns["inv_ttc_terminal"])
+    return Trajectory(z, poses, v, omega, target), costs
+
+
+def total_costs(z: np.ndarray, cycle, module, parallel_rows: int = 64) -> np.ndarray:
+    """The exact total cost of every row of ``z`` (n, 4): ``evaluate_compiled(...)[1].total``
+    to the bit (the same kernel pass), without building the trajectory and the breakdown.
+
+    The multistart's screen, verdicts and polish read the totals alone, and a polish round is
+    24 rows: there the breakdown's copies and objects cost as much as a fifth of the kernel
+    (docs/nlp.md, "Pass 10").
+    """
+    out = _kernel_pass(z, cycle, module, parallel_rows)[-1]
+    return out[:, module.OUT.index("total")].copy()
+
+
+def _kernel_pass(z, cycle, module, parallel_rows):
+    """The kernel's outputs for ``z``: ``(z, poses, v, omega, target, survival, out)``, the
+    fragile rows redone from the numpy reference's rollout (see :func:`evaluate_compiled`)."""
     z = np.array(z, dtype=float, order="C")  # writable and contiguous: one kernel signature
     n, n_steps = z.shape[0], cycle.config.horizon.n_steps
     poses = np.empty((n, n_steps + 1, 3))
@@ -141,37 +168,7 @@ def evaluate_compiled(z: np.ndarray, cycle, module,
              parallel_rows)
         poses[fragile], v[fragile], omega[fragile] = parts
         target[fragile], survival[fragile], out[fragile] = again.target, part_survival, part_out
-    columns = dict(zip(module.OUT, out.T))
-    with np.errstate(divide="ignore"):
-        costs = CostBreakdown(
-            columns["total"].copy(),
-            {name: columns[name].copy() for name in
-             ("progress", "action", "collision", "heading", "terminal")},
-            survival, columns["min_distance"].copy(), 1.0 / columns["inv_ttg"],
-            1.0 / columns["inv_ttc_terminal"])
-    return Trajectory(z, poses, v, omega, target), costs
-
-
-def total_costs(z: np.ndarray, cycle, module, parallel_rows: int = 64) -> np.ndarray:
-    """The exact total cost of every row of ``z`` (n, 4): ``evaluate_compiled(...)[1].total``
-    to the bit, without building the trajectories and the breakdown.
-
-    The multistart's screen, verdicts and polish read the totals alone, and a polish round is
-    24 rows: there the breakdown's copies and objects cost as much as a fifth of the kernel
-    (docs/nlp.md, "Pass 10"). Fragile rows are costed by :func:`evaluate_compiled`, which redoes
-    them with the reference rollout, so both paths give each row the same value.
-    """
-    z = np.array(z, dtype=float, order="C")
-    n, n_steps = z.shape[0], cycle.config.horizon.n_steps
-    out = np.empty((n, len(module.OUT)))
-    _run(module, cycle, z, np.empty((n, n_steps + 1, 3)), np.empty((n, n_steps)),
-         np.empty((n, n_steps)), np.empty((n, 3)), np.empty((n, n_steps + 1)), out, False,
-         parallel_rows)
-    total = out[:, module.OUT.index("total")].copy()
-    fragile = np.flatnonzero(out[:, module.OUT.index("fragile")])
-    if fragile.size:
-        total[fragile] = evaluate_compiled(z[fragile], cycle, module, parallel_rows)[1].total
-    return total
+    return z, poses, v, omega, target, survival, out
 
 
 def _run(module, cycle, z, poses, v, omega, target, survival, out, given, parallel_rows):
