@@ -433,3 +433,28 @@ def test_a_compiler_without_the_extra_options_still_compiles(tmp_path, monkeypat
     z = _random_z(SMALL_CONFIG, 1, 2)[0]
     np.testing.assert_allclose(loaded.call("G", z)[1], machine.call("G", z)[1], rtol=1e-9,
                                atol=1e-9)
+
+
+
+def test_a_failing_compiler_is_tried_once_more_only_without_the_extra_options(tmp_path,
+                                                                               monkeypatch):
+    """A compiler that always fails: the level with the other options, then the level alone
+    (once when it is alone), then CasADi's virtual machine after one warning."""
+    _compile_into(tmp_path, monkeypatch)
+    cost, n_params, step = _small_functions()
+    functions = compiled.problem_functions(cost, n_params, step)
+    calls = []
+
+    def failing(command, **options):
+        calls.append(tuple(command[3:command.index("-o")]))    # after cc -shared -fPIC
+        return subprocess.CompletedProcess(command, 1, "", "refused")
+
+    monkeypatch.setattr(compiled.subprocess, "run", failing)
+    monkeypatch.setattr(compiled, "_compiler", lambda: "cc")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert compiled.compile_library(functions, "fails_a", flags=("-O2", "-fx")) is None
+        assert calls == [("-O2", "-fx"), ("-O2",)]
+        calls.clear()
+        assert compiled.compile_library(functions, "fails_b", flags=("-O1",)) is None
+        assert calls == [("-O1",)]

@@ -218,10 +218,11 @@ def compile_library(functions: dict, key: str, flags=COMPILE_FLAGS) -> Path | No
             .replace("NIN", str(n_in)) for bound, name, n_in in _BOUND)
         source.write_text(text)
         target = Path(work) / library.name
-        for attempt in (tuple(flags), ("-O2",)):   # then plain -O2, for a compiler that
-            done = subprocess.run([compiler, "-shared", "-fPIC", *attempt, "-o",  # knows
-                                   str(target), str(source), "-lm"],  # fewer options
-                                  capture_output=True, text=True)
+        # The options, then the first (the optimisation level) alone for a compiler that
+        # refuses the others; one attempt when there are no others.
+        for attempt in dict.fromkeys((tuple(flags), tuple(flags[:1]))):
+            done = subprocess.run([compiler, "-shared", "-fPIC", *attempt, "-o", str(target),
+                                   str(source), "-lm"], capture_output=True, text=True)
             if done.returncode == 0:
                 break
         if done.returncode != 0:
