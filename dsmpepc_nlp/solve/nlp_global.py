@@ -24,7 +24,7 @@ honest at every z:
 
 Everything but the look-ups is SX (compact derivatives); the cost is ``costs.assemble``, the
 formula the exact cost uses. Accuracy and speed, with the commands, are in ``docs/nlp.md``.
-Longer than 400 lines (~600) because the graph's pieces and the packing of their parameters
+Longer than 400 lines (~700) because the graph's pieces and the packing of their parameters
 must change together; splitting them would put one parameter layout in two files.
 """
 
