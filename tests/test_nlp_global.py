@@ -92,7 +92,7 @@ SMALL_SIZES = g.GraphSizes(max_objects=2, table_cells=16, ray_samples=4)
 def _small_functions():
     cost = g.flat_cost(SMALL_CONFIG, SMALL_SIZES)
     span = np.array(SMALL_CONFIG.z_upper) - np.array(SMALL_CONFIG.z_lower)
-    return cost, cost.size1_in(1), 1e-6 * span
+    return cost, 1e-6 * span
 
 
 needs_compiler = pytest.mark.skipif(shutil.which("gcc") is None and shutil.which("cc") is None,
@@ -114,10 +114,10 @@ def _small_parameters():
 @needs_compiler
 def test_compiled_functions_equal_the_virtual_machine_and_are_cached(tmp_path, monkeypatch):
     _compile_into(tmp_path, monkeypatch)
-    cost, n_params, step = _small_functions()
-    built = compiled.build(cost, n_params, step, (SMALL_CONFIG, SMALL_SIZES))
+    cost, step = _small_functions()
+    built = compiled.build(lambda: cost, step, (SMALL_CONFIG, SMALL_SIZES))
     assert built.compiled
-    machine = compiled.Compiled(compiled.problem_functions(cost, n_params, step), None)
+    machine = compiled.Compiled(compiled.problem_functions(cost, step), None)
     p = _small_parameters()
     built.bind(p)
     machine.bind(p)
@@ -135,9 +135,39 @@ def test_compiled_functions_equal_the_virtual_machine_and_are_cached(tmp_path, m
             for mine, theirs in zip(bound, machine.call(name, z)):
                 np.testing.assert_allclose(np.array(mine), theirs, rtol=1e-9, atol=1e-9)
     started = time.perf_counter()
-    again = compiled.build(cost, n_params, step, (SMALL_CONFIG, SMALL_SIZES))
+    again = compiled.build(lambda: cost, step, (SMALL_CONFIG, SMALL_SIZES))
     assert again.compiled and time.perf_counter() - started < 5.0
     assert len(list((tmp_path).rglob("*.so"))) == 1
+
+
+@needs_compiler
+def test_a_cached_library_is_loaded_without_building_the_graph(tmp_path, monkeypatch):
+    """The graph is built only to compile: from the cache the library alone is loaded (its
+    shapes read from it), and gives the same outputs to the bit."""
+    _compile_into(tmp_path, monkeypatch)
+    cost, step = _small_functions()
+    made = []
+
+    def make():
+        made.append(True)
+        return cost
+
+    first = compiled.build(make, step, (SMALL_CONFIG, SMALL_SIZES))
+    again = compiled.build(make, step, (SMALL_CONFIG, SMALL_SIZES))
+    assert first.compiled and again.compiled and len(made) == 1
+    assert again.n_params == first.n_params == cost.size1_in(1)
+    p = _small_parameters()
+    first.bind(p)
+    again.bind(p)
+    for z in _random_z(SMALL_CONFIG, 3, 11):
+        for name in compiled.NAMES:
+            for mine, theirs in zip(again.call(name, z), first.call(name, z)):
+                np.testing.assert_array_equal(mine, theirs)
+    monkeypatch.setenv("DSMPEPC_NO_COMPILE", "1")      # off: the graph, on the machine
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        machine = compiled.build(make, step, (SMALL_CONFIG, SMALL_SIZES))
+    assert not machine.compiled and len(made) == 2 and machine.n_params == cost.size1_in(1)
 
 
 @needs_compiler
@@ -227,11 +257,11 @@ def test_no_compile_falls_back_to_the_virtual_machine_with_one_warning(tmp_path,
     monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
     monkeypatch.setenv("DSMPEPC_NO_COMPILE", "1")
     monkeypatch.setattr(cache, "_WARNED", set())
-    cost, n_params, step = _small_functions()
+    cost, step = _small_functions()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        first = compiled.build(cost, n_params, step, (SMALL_CONFIG, SMALL_SIZES))
-        compiled.build(cost, n_params, step, (SMALL_CONFIG, SMALL_SIZES))
+        first = compiled.build(lambda: cost, step, (SMALL_CONFIG, SMALL_SIZES))
+        compiled.build(lambda: cost, step, (SMALL_CONFIG, SMALL_SIZES))
     assert not first.compiled
     assert len([w for w in caught if "virtual machine" in str(w.message)]) == 1
     assert not list(tmp_path.rglob("*.so"))
@@ -420,8 +450,8 @@ def test_packed_objects_are_the_nearest_circles_of_the_nearest_objects():
 def test_a_compiler_without_the_extra_options_still_compiles(tmp_path, monkeypatch):
     """Options the compiler refuses fall back to plain -O2, not to the virtual machine."""
     _compile_into(tmp_path, monkeypatch)
-    cost, n_params, step = _small_functions()
-    functions = compiled.problem_functions(cost, n_params, step)
+    cost, step = _small_functions()
+    functions = compiled.problem_functions(cost, step)
     library = compiled.compile_library(functions, "refused_option",
                                        flags=("-O2", "--no-such-option-for-any-compiler"))
     assert library is not None and library.exists()
@@ -441,8 +471,8 @@ def test_a_failing_compiler_is_tried_once_more_only_without_the_extra_options(tm
     """A compiler that always fails: the level with the other options, then the level alone
     (once when it is alone), then CasADi's virtual machine after one warning."""
     _compile_into(tmp_path, monkeypatch)
-    cost, n_params, step = _small_functions()
-    functions = compiled.problem_functions(cost, n_params, step)
+    cost, step = _small_functions()
+    functions = compiled.problem_functions(cost, step)
     calls = []
 
     def failing(command, **options):

@@ -40,7 +40,7 @@ def source_hash() -> str:
     return digest.hexdigest()[:12]
 
 
-def problem_functions(cost: ca.Function, n_params: int, fd_step, hessian="differences") -> dict:
+def problem_functions(cost: ca.Function, fd_step, hessian="differences") -> dict:
     """``F``, ``G``, ``H`` (and ``adj1_F`` for ``nlpsol``) from the cost graph.
 
     ``cost(z, p) -> f`` takes the flat parameter vector; it is inlined, so the gradient's
@@ -48,7 +48,7 @@ def problem_functions(cost: ca.Function, n_params: int, fd_step, hessian="differ
     of the gradient with steps ``fd_step`` (4,), symmetrised: a bilinear table has no
     curvature to add) or ``exact`` (forward over reverse through the whole graph).
     """
-    z, p = ca.MX.sym("z", 4), ca.MX.sym("p", n_params)
+    z, p = ca.MX.sym("z", 4), ca.MX.sym("p", cost.size1_in(1))
     f = cost.call([z, p], True, False)[0]
     grad = ca.gradient(f, z)
     G = ca.Function("G", [z, p], [f, grad])
@@ -191,9 +191,8 @@ def _compiler() -> str | None:
     return shutil.which(os.environ.get("CC", "gcc")) or shutil.which("cc")
 
 
-def compile_library(functions: dict, key: str, flags=COMPILE_FLAGS) -> Path | None:
-    """The shared library of ``functions`` for ``key``, compiled unless cached; None when
-    compilation is disabled or fails (the caller then uses the virtual machine)."""
+def _usable_compiler() -> str | None:
+    """The C compiler, or None (with one warning) when compilation is off or there is none."""
     if not compile_enabled():
         warn_once("casadi-compile", "DSMPEPC_NO_COMPILE is set: the NLP runs in CasADi's "
                   "virtual machine (slower)")
@@ -202,9 +201,21 @@ def compile_library(functions: dict, key: str, flags=COMPILE_FLAGS) -> Path | No
     if compiler is None:
         warn_once("casadi-compile", "no C compiler found: the NLP runs in CasADi's virtual "
                   "machine (slower)")
+    return compiler
+
+
+def _library_path(key: str) -> Path:
+    return cache_dir("casadi") / f"nlp_{key}.so"
+
+
+def compile_library(functions: dict, key: str, flags=COMPILE_FLAGS) -> Path | None:
+    """The shared library of ``functions`` for ``key``, compiled unless cached; None when
+    compilation is disabled or fails (the caller then uses the virtual machine)."""
+    compiler = _usable_compiler()
+    if compiler is None:
         return None
-    folder = cache_dir("casadi")
-    library = folder / f"nlp_{key}.so"
+    library = _library_path(key)
+    folder = library.parent
     if library.exists():
         return library
     with tempfile.TemporaryDirectory(dir=folder) as work:
@@ -324,15 +335,17 @@ class Compiled:
         True when the functions run as compiled C.
     """
 
-    def __init__(self, functions: dict, library: Path | None):
+    def __init__(self, functions: dict | None, library: Path | None):
         self.compiled = library is not None
         if library is None:
             self.functions = functions
             self._c = None
             return
+        # The library alone (``functions`` may be None): the externals carry the generated
+        # functions' shapes and work sizes, so a cached library needs no graph.
         self.functions = {name: ca.external(name, str(library)) for name in NAMES + BOUND_NAMES}
         handle = ctypes.CDLL(str(library))
-        self._c = {name: CFunction(handle, name, functions[name]) for name in NAMES}
+        self._c = {name: CFunction(handle, name, self.functions[name]) for name in NAMES}
         self._bind = handle.dsmpepc_bind
         self._bind.argtypes = [ctypes.c_void_p]
         self._bind.restype = None
@@ -348,6 +361,11 @@ class Compiled:
                 function.bind(self._p)
             self._bind(self._p.ctypes.data)
 
+    @property
+    def n_params(self) -> int:
+        """Length of the flat parameter vector ``p``."""
+        return self.functions["F"].size1_in(1)
+
     def native(self, name: str, rows: int = 1):
         """:meth:`CFunction.native_rows` of ``name`` (F, G or H); None on the virtual
         machine."""
@@ -362,12 +380,19 @@ class Compiled:
         return self._c[name](z)
 
 
-def build(cost: ca.Function, n_params: int, fd_step, key_parts: tuple,
-          hessian="differences") -> Compiled:
-    """Compile (or load from the cache) the problem's functions for one configuration."""
-    functions = problem_functions(cost, n_params, fd_step, hessian)
+def build(make_cost, fd_step, key_parts: tuple, hessian="differences") -> Compiled:
+    """Compile (or load from the cache) the problem's functions for one configuration.
+
+    ``make_cost()`` returns the cost graph ``cost(z, p) -> f``. It is called only when the
+    library is not in the cache (or runs on the virtual machine): building the graph and its
+    derivatives takes ~0.25 s a configuration, loading the cached library ~7 ms, so that a
+    planner meeting a new object bucket mid-run does not miss its control period.
+    """
     key = config_key(*key_parts, hessian, tuple(np.asarray(fd_step, dtype=float).tolist()),
                      source_hash(), ca.__version__)
+    if compile_enabled() and _compiler() is not None and _library_path(key).exists():
+        return Compiled(None, _library_path(key))
+    functions = problem_functions(make_cost(), fd_step, hessian)
     return Compiled(functions, compile_library(functions, key))
 
 

@@ -75,12 +75,11 @@ class Problem:
         self.config, self.sizes = config, sizes
         self.lower = np.array(config.z_lower, dtype=float)
         self.upper = np.array(config.z_upper, dtype=float)
-        cost = nlp_global.flat_cost(config, sizes)
-        self.n_params = cost.size1_in(1)
         step = solver.fd_step * (self.upper - self.lower)
         hessian = "exact" if solver.hessian == "exact" else "differences"
-        self.functions = compiled.build(cost, self.n_params, step, (config, sizes, "global"),
-                                        hessian)
+        self.functions = compiled.build(lambda: nlp_global.flat_cost(config, sizes), step,
+                                        (config, sizes, "global"), hessian)
+        self.n_params = self.functions.n_params
         self.p = np.zeros(self.n_params)
         self.build_s = time.perf_counter() - started
 
