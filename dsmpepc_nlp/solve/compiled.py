@@ -398,15 +398,3 @@ def build(make_cost, fd_step, key_parts: tuple, hessian="differences") -> Compil
 
 __all__ = ["BOUND_NAMES", "CFunction", "Compiled", "build", "compile_library", "problem_functions",
            "source_hash", "specialise"]
-
-
-def flatten_blocks(params: dict, names) -> np.ndarray:
-    """Named parameter blocks as one vector, each column-major (CasADi's ``vec``), in the order
-    of ``names``: the flat ``p`` a graph's solvers and compiled functions take."""
-    return np.concatenate([np.asarray(params[n], dtype=float).reshape(-1, order="F")
-                           for n in names])
-
-
-def blocks_finite(params: dict, names) -> bool:
-    """True when every named block is finite."""
-    return all(np.all(np.isfinite(params[n])) for n in names)

@@ -49,7 +49,6 @@ from ..core.costs import (
 from ..core.errors import InputError
 from ..core.geometry import body_to_world
 from ..core.smooth import CASADI, relu, sigmoid, smax, softmax_objects, softmin_objects
-from .compiled import blocks_finite, flatten_blocks
 from .cycle import CULL_SIGMAS
 
 FAR = 1.0e3
@@ -645,13 +644,15 @@ def pack_parameters(cycle, sizes: GraphSizes) -> dict:
 
 
 def flatten_parameters(params: dict) -> np.ndarray:
-    """The blocks as one vector, each column-major (CasADi's ``vec``), in PARAMETER_NAMES order."""
-    return flatten_blocks(params, PARAMETER_NAMES)
+    """The blocks as one vector, each column-major (CasADi's ``vec``), in PARAMETER_NAMES order:
+    the flat ``p`` the solvers and the compiled functions take."""
+    return np.concatenate([np.asarray(params[n], dtype=float).reshape(-1, order="F")
+                           for n in PARAMETER_NAMES])
 
 
 def is_finite_parameters(params: dict) -> bool:
     """True when every block is finite."""
-    return blocks_finite(params, PARAMETER_NAMES)
+    return all(np.all(np.isfinite(params[n])) for n in PARAMETER_NAMES)
 
 
 def flat_cost(config: PlannerConfig, sizes: GraphSizes, smoothing=None) -> ca.Function:
