@@ -51,6 +51,14 @@ def test_run_bench_shape():
     assert isinstance(result["table"], str)
 
 
+def test_bench_summary_reports_the_first_plan_beside_median_and_p95():
+    from dsmpepc_nlp.bench.timing import _summary
+
+    summary = _summary([0.30, 0.02, 0.01, 0.03])
+    assert summary["first_ms"] == pytest.approx(300.0)
+    assert summary["median_ms"] == pytest.approx(25.0)
+
+
 def test_polish_gain_is_what_the_polish_record_beat():
     from dsmpepc_nlp.bench.timing import polish_gain
     from dsmpepc_nlp.solve.records import StartRecord
