@@ -65,7 +65,9 @@ def law_command(pose, target, v_max, config: PlannerConfig, smoothing=EXACT, ops
         law.k2 * (de - ops.atan(-k1th)) + (1.0 + law.k1 / (1.0 + k1th * k1th)) * ops.sin(de)
     ) / rho
     abs_kappa = sabs(kappa, smoothing.curvature, ops)
-    slowdown = kappa * kappa if law.lam == 2.0 else abs_kappa**law.lam
+    # lam = 2 squares kappa (no |kappa|); a symbolic lam (a graph parameter) is never 2 here.
+    squared = isinstance(law.lam, (int, float)) and law.lam == 2.0
+    slowdown = kappa * kappa if squared else abs_kappa**law.lam
     v = smin_positive(v_max / (1.0 + law.beta * slowdown), v_max * rho / law.r_thresh,
                       smoothing.speed, ops)
     # The omega limit scales v down and keeps the curvature.
@@ -75,7 +77,7 @@ def law_command(pose, target, v_max, config: PlannerConfig, smoothing=EXACT, ops
 
 
 def _rate_limit(value, previous, limit, dt, temperature, ops):
-    if limit == float("inf"):
+    if isinstance(limit, (int, float)) and limit == float("inf"):   # no limit (symbolic: a limit)
         return value
     low, high = previous - limit * dt, previous + limit * dt
     return smin(smax(value, low, temperature, ops), high, temperature, ops)

@@ -22,7 +22,7 @@ from .config import TERM_NAMES, PlannerConfig  # noqa: F401 (TERM_NAMES re-expor
 from .control_law import EXACT, Trajectory
 from .errors import InputError
 from .geometry import footprint_points
-from .smooth import NUMPY, relu, sabs, sigmoid, smax
+from .smooth import NUMPY, is_exact, relu, sabs, sigmoid, smax
 
 _SIGNIFICANT_BELL = 6.0
 """Beyond this many sigmas exp(-d^2/sigma^2) < 3e-16: TTC is not needed there."""
@@ -46,7 +46,7 @@ def disk_inverse_ttc(px, py, wx, wy, radius, smoothing=EXACT, ops=NUMPY):
     c = px * px + py * py - radius * radius
     disc = b * b - a * c
     num = relu(-b, 0.0, ops) + ops.sqrt(relu(disc, 0.0, ops))
-    if smoothing.distance == 0:
+    if is_exact(smoothing.distance):
         hit = ops.where(b < 0, 1.0, 0.0) * ops.where(disc >= 0, 1.0, 0.0)
         with np.errstate(divide="ignore", invalid="ignore"):
             inv = hit * num / ops.fmax(c, 1e-300)

@@ -137,14 +137,14 @@ CASADI = CasadiOps()
 # --- smooth stand-ins: exact at temperature 0 ----------------------------------------------
 
 
-def _is_exact(temperature) -> bool:
+def is_exact(temperature) -> bool:
     """True for a plain zero temperature; an array or symbolic temperature is never exact."""
     return isinstance(temperature, (int, float)) and temperature == 0
 
 
 def relu(x, temperature, ops):
     """``max(x, 0)``; smooth: ``t log(1 + exp(x / t))`` (softplus), above it by at most t log 2."""
-    if _is_exact(temperature):
+    if is_exact(temperature):
         return ops.fmax(x, 0.0)
     # max(x, 0) + t log(1 + exp(-|x|/t)) is softplus written without overflow.
     return ops.fmax(x, 0.0) + temperature * ops.log1p(ops.exp(-ops.fabs(x) / temperature))
@@ -152,14 +152,14 @@ def relu(x, temperature, ops):
 
 def smin(a, b, temperature, ops):
     """``min(a, b)``; smooth: ``a - softplus_t(a - b)``, below the exact min by at most t*log 2."""
-    if _is_exact(temperature):
+    if is_exact(temperature):
         return ops.fmin(a, b)
     return a - relu(a - b, temperature, ops)
 
 
 def smax(a, b, temperature, ops):
     """``max(a, b)``; smooth: ``a + softplus_t(b - a)``, above the exact max by at most t*log 2."""
-    if _is_exact(temperature):
+    if is_exact(temperature):
         return ops.fmax(a, b)
     return a + relu(b - a, temperature, ops)
 
@@ -170,7 +170,7 @@ def smin_positive(a, b, temperature, ops):
     The temperature is relative (dimensionless): the smooth value lies within a factor
     ``2^-t`` below the exact minimum, so it stays >= 0 and is exact at 0, whatever the scale.
     """
-    if _is_exact(temperature):
+    if is_exact(temperature):
         return ops.fmin(a, b)
     low, high = ops.fmin(a, b), ops.fmax(a, b)
     # Written through min and max for stability; the function itself is symmetric and smooth.
@@ -190,7 +190,7 @@ def sigmoid(x, ops):
 
 def sabs(x, temperature, ops):
     """``|x|``; smooth: ``sqrt(x^2 + t^2)``, above |x| by at most t."""
-    if _is_exact(temperature):
+    if is_exact(temperature):
         return ops.fabs(x)
     return ops.sqrt(x * x + temperature * temperature)
 
@@ -200,13 +200,13 @@ def softmin_objects(x, temperature, ops):
 
     The soft-min lies below the exact minimum by at most ``t * log(count)``.
     """
-    if _is_exact(temperature):
+    if is_exact(temperature):
         return ops.min_objects(x)
     return -temperature * ops.logsumexp_objects(-x / temperature)
 
 
 def softmax_objects(x, temperature, ops):
     """Largest value along the object axis; smooth: ``t * logsumexp(x / t)``."""
-    if _is_exact(temperature):
+    if is_exact(temperature):
         return ops.max_objects(x)
     return temperature * ops.logsumexp_objects(x / temperature)
