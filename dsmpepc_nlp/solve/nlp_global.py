@@ -30,6 +30,7 @@ must change together; splitting them would put one parameter layout in two files
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 from dataclasses import dataclass
 
@@ -37,7 +38,7 @@ import casadi as ca
 import numpy as np
 
 from ..core.config import PlannerConfig
-from ..core.control_law import clamp_measured, step_function, target_pose
+from ..core.control_law import clamp_measured, step, target_pose
 from ..core.costs import (
     TERM_NAMES,
     assemble,
@@ -48,7 +49,8 @@ from ..core.costs import (
 )
 from ..core.errors import InputError
 from ..core.geometry import body_to_world
-from ..core.smooth import CASADI, relu, sigmoid, smax, softmax_objects, softmin_objects
+from ..core.smooth import CASADI, is_exact, relu, sigmoid, smax, softmax_objects, softmin_objects
+from . import settings as settings_block
 from .cycle import CULL_SIGMAS
 
 FAR = 1.0e3
@@ -114,9 +116,16 @@ class GraphSizes:
         return self.max_objects if self.pose_objects is None else self.pose_objects
 
 
+RAY_LADDER_BASE = 7
+"""The terminal ray's sample counts are ``7 * 2^k``: the default ray (8 m, 0.3 m radius, 28
+samples) is on the ladder, and every other range and footprint rounds up to one of a few
+counts, so that they share compiled libraries (the count is structure)."""
+
+
 def ray_samples(config: PlannerConfig, sizes: GraphSizes) -> int:
     """Samples along the terminal ray: ``sizes.ray_samples``, or (None) enough that they are
-    at most the smallest footprint radius apart.
+    at most the smallest footprint radius apart, rounded up to the ladder
+    ``RAY_LADDER_BASE * 2^k``.
 
     A ray that crosses a wall spends at least a footprint diameter within a radius of it
     (gap <= 0), so samples a radius apart put at least two in contact: no wall is skipped,
@@ -129,12 +138,16 @@ def ray_samples(config: PlannerConfig, sizes: GraphSizes) -> int:
     if sizes.ray_samples is not None:
         return sizes.ray_samples
     smallest = min(radius for _, _, radius in config.robot.footprint)
-    return max(2, int(np.ceil(config.cost.ttc_range / smallest)) + 1)
+    needed = max(2, int(np.ceil(config.cost.ttc_range / smallest)) + 1)
+    count = RAY_LADDER_BASE
+    while count < needed:
+        count *= 2
+    return count
 
 
 PARAMETER_NAMES = ("state", "goal", "obstacle_circles", "obstacle_velocities", "pose_circles",
                    "pose_velocities", "pose_mask", "map_frame", "map_table", "nav_frame",
-                   "nav_table")
+                   "nav_table", "settings")
 """Named parameter inputs of :func:`build_cost_function`, in order."""
 
 
@@ -153,6 +166,7 @@ def parameter_shapes(config: PlannerConfig, sizes: GraphSizes) -> dict:
         "map_table": (cells, 1),
         "nav_frame": (FRAME_COLUMNS, 1),
         "nav_table": (cells, 1),
+        "settings": (len(settings_block.names(config)), 1),
     }
 
 
@@ -195,14 +209,15 @@ def _stencil_points(points, frame):
 
 def _rollout(z, state, config, smoothing):
     """Poses (3 x (N+1)), speeds and turn rates (N x 1 each) of the law from ``state``."""
-    law_step = step_function(config, smoothing)
     target = ca.vertcat(*target_pose([z[0], z[1], z[2]], [state[0], state[1], state[2]], CASADI))
     # SQP iterates can leave the box by the QP's tolerance (seen: v_max = -2.8e-3); a negative
     # v_max makes the law's smooth speed cap NaN (a negative base to the power 1/t).
     v_max = ca.fmax(z[3], 0.0)
     carry, poses, vs, omegas = state, [state[:3]], [], []
     for _ in range(config.horizon.n_steps):
-        carry, v, omega = law_step(carry, target, v_max)
+        carry, v, omega = step(ca.vertsplit(carry), ca.vertsplit(target), v_max, config,
+                               smoothing, CASADI)
+        carry = ca.vertcat(*carry)
         poses.append(carry[:3])
         vs.append(v)
         omegas.append(omega)
@@ -240,7 +255,7 @@ def _static_terms(pose, speed, gap, normal, config, smoothing):
     norm = ca.sqrt(normal[0] ** 2 + normal[1] ** 2 + 1e-12)
     closing = -(cos * normal[0] + sin * normal[1]) / norm * speed
     reach, t_dist = config.cost.ttc_range, smoothing.distance
-    if t_dist == 0:
+    if is_exact(t_dist):
         hit = ca.if_else(closing * reach >= speed * gap, 1.0, 0.0)
         return ca.if_else(gap <= 0, np.inf, hit * ca.fmax(closing, 0.0) / ca.fmax(gap, 1e-300))
     gate = sigmoid((closing * reach - speed * gap) / (t_dist * config.robot.v_limit), CASADI)
@@ -296,13 +311,17 @@ def _dynamic_geometry(pose, speed, time, circles, velocities, config, smoothing,
 
 def _ray_points(end, config, sizes):
     """Samples along the terminal heading from each footprint circle: 2 x (M C), circle-major,
-    and their distances along the ray (M,)."""
-    along = np.linspace(0.0, config.cost.ttc_range, ray_samples(config, sizes))
+    and their distances along the ray (M: numpy's ``linspace(0, ttc_range, M)``, operation
+    for operation, with ``ttc_range`` a parameter)."""
+    m, reach = ray_samples(config, sizes), config.cost.ttc_range
+    spacing = reach / (m - 1)
+    along = [reach if j == m - 1 else j * spacing for j in range(m)]
+    row = ca.horzcat(*along)
     cos, sin = ca.cos(end[2]), ca.sin(end[2])
     columns = []
     for cx, cy, _ in config.robot.footprint:
         x, y = body_to_world(end, cx, cy, ca)
-        columns.append(ca.vertcat(x + cos * ca.DM(along).T, y + sin * ca.DM(along).T))
+        columns.append(ca.vertcat(x + cos * row, y + sin * row))
     return ca.horzcat(*columns), along
 
 
@@ -314,20 +333,21 @@ def _ray_inverse_ttc(gaps, along, speed, smoothing):
     temperature, so the crossing moves continuously with the trajectory.
     """
     t_dist = smoothing.distance
-    step = float(along[1] - along[0])
+    exact = is_exact(t_dist)
+    spacing = along[1] - along[0]
     inverse, free = 0.0, 1.0
     for j in range(gaps.shape[1]):
         gap = gaps[j]
-        hit = ca.if_else(gap <= 0, 1.0, 0.0) if t_dist == 0 else sigmoid(-gap / t_dist, CASADI)
+        hit = ca.if_else(gap <= 0, 1.0, 0.0) if exact else sigmoid(-gap / t_dist, CASADI)
         if j == 0:
             crossing = relu(gap, t_dist, CASADI)
         else:
             before = gaps[j - 1]
-            share = (before / (before - gap) if t_dist == 0 else
+            share = (before / (before - gap) if exact else
                      before / smax(before - gap, t_dist, t_dist, CASADI))
-            crossing = along[j - 1] + step * ca.fmin(ca.fmax(share, 0.0), 1.0)
+            crossing = along[j - 1] + spacing * ca.fmin(ca.fmax(share, 0.0), 1.0)
         weight = hit * free
-        if t_dist == 0:
+        if exact:
             inv = ca.if_else(crossing <= 0, np.inf, speed / ca.fmax(crossing, 1e-300))
             inverse = inverse + ca.if_else(weight > 0, weight * inv, 0.0)
         else:
@@ -337,49 +357,58 @@ def _ray_inverse_ttc(gaps, along, speed, smoothing):
 
 
 def _symbols(config, sizes):
-    """SX symbols of the small parameter blocks (not the tables)."""
+    """SX symbols of the small parameter blocks (not the tables, not the settings)."""
     shapes = parameter_shapes(config, sizes)
     return {name: ca.SX.sym(name, *shape) for name, shape in shapes.items()
-            if not name.endswith("_table")}
+            if not name.endswith("_table") and name != "settings"}
+
+
+def _symbolic(config, smoothing):
+    """A fresh ``settings`` SX vector and the configuration and smoothing read from it
+    (:func:`.settings.symbolic`): every SX piece takes the settings as its last input."""
+    q = ca.SX.sym("settings", len(settings_block.names(config)))
+    return (q, *settings_block.symbolic(config, q, smoothing))
 
 
 def _pose_functions(config, sizes, smoothing):
     """SX pieces of one pose: where it reads the map table, and the map's geometry from the
     reads.
 
-    ``pose_query(pose, map_frame) -> uv`` (2 x 5C) and ``pose_geometry(pose, speed, raw 1 x 5C,
-    map_frame) -> (distance, inv_ttc)`` (scalars) against the map.
+    ``pose_query(pose, map_frame, settings) -> uv`` (2 x 5C) and ``pose_geometry(pose, speed,
+    raw 1 x 5C, map_frame, settings) -> (distance, inv_ttc)`` (scalars) against the map.
     """
     p = _symbols(config, sizes)
+    q, config, smoothing = _symbolic(config, smoothing)
     pose, speed = ca.SX.sym("pose", 3), ca.SX.sym("speed")
     n_c = len(config.robot.footprint)
     raw = ca.SX.sym("raw", 1, len(_STENCIL) * n_c)
     frame = p["map_frame"]
     centres = _circle_centres(pose, config)
     uv, outside = _stencil_coordinates(centres, frame)
-    query = ca.Function("dsmpepc_pose_query", [pose, frame], [uv])
+    query = ca.Function("dsmpepc_pose_query", [pose, frame, q], [uv])
     d, gx, gy = _central(raw + outside, n_c, frame[2])
     static_d, static_inv = _static_geometry(pose, [speed], d, gx, gy, config, smoothing)
     inverse = static_inv[0] if config.anticipatory_pc else ca.SX(0)
-    geometry = ca.Function("dsmpepc_pose_geometry", [pose, speed, raw, frame],
+    geometry = ca.Function("dsmpepc_pose_geometry", [pose, speed, raw, frame, q],
                            [static_d[0], inverse])
     return query, geometry
 
 
 def _object_function(config, sizes, smoothing):
-    """``object_kept(mask, pose, speed, time, circles C_obj x 3, velocity 1 x 2) -> 1 - P_c``
-    of one dynamic object at one pose (``costs.collision_probability``), or exactly 1 without
-    computing anything where ``mask`` is 0 (a CasADi conditional: the object cannot come
-    within ``CULL_SIGMAS`` sigma of that pose, where ``1 - P_c == 1.0`` exactly; see
-    :func:`pose_mask`)."""
-    pose, speed, time = ca.SX.sym("pose", 3), ca.SX.sym("speed"), ca.SX.sym("time")
+    """``object_kept(mask, pose, speed, step, circles C_obj x 3, velocity 1 x 2, settings) ->
+    1 - P_c`` of one dynamic object at pose ``step`` (``costs.collision_probability``), or
+    exactly 1 without computing anything where ``mask`` is 0 (a CasADi conditional: the object
+    cannot come within ``CULL_SIGMAS`` sigma of that pose, where ``1 - P_c == 1.0`` exactly;
+    see :func:`pose_mask`)."""
+    q, config, smoothing = _symbolic(config, smoothing)
+    pose, speed, k = ca.SX.sym("pose", 3), ca.SX.sym("speed"), ca.SX.sym("step")
     circles = ca.SX.sym("circles", sizes.circles_per_object, 3)
     velocity = ca.SX.sym("velocity", 1, 2)
-    distance, inverse = _dynamic_geometry(pose, speed, time, circles, velocity, config,
-                                          smoothing, sizes)
+    distance, inverse = _dynamic_geometry(pose, speed, k * config.horizon.dt, circles, velocity,
+                                          config, smoothing, sizes)
     kept = 1.0 - collision_probability(distance, inverse, config.cost.sigma_dynamic, config,
                                        smoothing, CASADI)
-    inputs = [pose, speed, time, circles, velocity]
+    inputs = [pose, speed, k, circles, velocity, q]
     near = ca.Function("dsmpepc_object_kept", inputs, [kept])
     # Exactly 1 with a zero derivative, written so that it reads every input: its adjoint is
     # then dense like the computation's, and the conditional's reverse mode writes it without
@@ -391,15 +420,17 @@ def _object_function(config, sizes, smoothing):
 
 
 def _terminal_functions(config, sizes, smoothing):
-    """``ray_query(end, map_frame) -> uv`` (2 x MC) and ``terminal(end, raw 1 x MC,
-    map_frame, circles, velocities) -> 1/TTC`` at v_limit along the terminal heading."""
+    """``ray_query(end, map_frame, settings) -> uv`` (2 x MC) and ``terminal(end, raw 1 x MC,
+    map_frame, circles, velocities, settings) -> 1/TTC`` at v_limit along the terminal
+    heading."""
     p = _symbols(config, sizes)
+    q, config, smoothing = _symbolic(config, smoothing)
     end, frame = ca.SX.sym("end", 3), p["map_frame"]
     m = ray_samples(config, sizes)
     raw = ca.SX.sym("raw", 1, m * len(config.robot.footprint))
     points, along = _ray_points(end, config, sizes)
     uv, outside = _cell_coordinates(points, frame)
-    query = ca.Function("dsmpepc_ray_query", [end, frame], [uv])
+    query = ca.Function("dsmpepc_ray_query", [end, frame, q], [uv])
     speed = config.robot.v_limit
     gaps = raw + outside
     static = [_ray_inverse_ttc(gaps[:, c * m:(c + 1) * m] - radius, along, speed, smoothing)
@@ -409,7 +440,7 @@ def _terminal_functions(config, sizes, smoothing):
                                smoothing, sizes)
     inv = softmax_objects(ca.horzcat(*static, dyn), smoothing.inverse_time, CASADI)
     terminal = ca.Function("dsmpepc_terminal", [end, raw, frame, p["obstacle_circles"],
-                                                p["obstacle_velocities"]], [inv])
+                                                p["obstacle_velocities"], q], [inv])
     return query, terminal
 
 
@@ -422,10 +453,11 @@ def _nav_points(poses, frame):
 
 def _final_functions(config, sizes, smoothing):
     """``nav_query(poses, nav_frame) -> uv`` and ``assemble(poses, v, omega, goal, nav_frame,
-    nav_raw, distance, inv_ttc, kept, inv_term) -> (cost, *terms)`` through
+    nav_raw, distance, inv_ttc, kept, inv_term, settings) -> (cost, *terms)`` through
     ``costs.assemble`` (``distance``, ``inv_ttc``: the map's, (N+1) x 1; ``kept``: the
     dynamic objects' product of ``1 - P_c`` per pose, (N+1) x 1)."""
     p = _symbols(config, sizes)
+    q, config, smoothing = _symbolic(config, smoothing)
     n_steps = config.horizon.n_steps
     poses = ca.SX.sym("poses", 3, n_steps + 1)
     vs, omegas = ca.SX.sym("v", n_steps), ca.SX.sym("omega", n_steps)
@@ -450,8 +482,10 @@ def _final_functions(config, sizes, smoothing):
     err = heading_error(end[2], descent[0], descent[1], CASADI, smoothing)
     # The TTG bell is s_ttg = 1e-3 1/s wide: its soft-clip runs at the same share of the bell's
     # width as 1/TTC's (inverse_time * s_ttg / s_ttc), else C_TTG ~ 0 where it is exactly 1.
-    ttg_smoothing = dataclasses.replace(
-        smoothing, inverse_time=smoothing.inverse_time * config.cost.s_ttg / config.cost.s_ttc)
+    ttg_smoothing = copy.copy(smoothing)
+    if not is_exact(smoothing.inverse_time):
+        object.__setattr__(ttg_smoothing, "inverse_time",
+                           smoothing.inverse_time * config.cost.s_ttg / config.cost.s_ttc)
     inv_ttg = terminal_inverse_ttg((end[0], end[1], end[2]), vs[-1], goal, nf[-1], descent,
                                    config, CASADI, ttg_smoothing)
     sigma = ca.DM.ones(n, 1) * config.cost.sigma_static
@@ -459,27 +493,37 @@ def _final_functions(config, sizes, smoothing):
                                inv_term, config, smoothing, CASADI, kept=kept)
     final = ca.Function("dsmpepc_assemble",
                         [poses, vs, omegas, goal, frame, raw, distance, inverse, kept,
-                         inv_term], [total, *(terms[t] for t in TERM_NAMES)])
+                         inv_term, q], [total, *(terms[t] for t in TERM_NAMES)])
     return query, final
+
+
+def resolved_sizes(config: PlannerConfig, sizes: GraphSizes) -> GraphSizes:
+    """``sizes`` with its terminal ray's sample count resolved (:func:`ray_samples`): what a
+    compiled library's key holds."""
+    return dataclasses.replace(sizes, ray_samples=ray_samples(config, sizes))
 
 
 def build_cost_function(config: PlannerConfig, sizes: GraphSizes, smoothing=None) -> ca.Function:
     """The smooth cost as a ``casadi.Function`` named ``dsmpepc_cost``.
 
     Inputs: ``z`` (4) and the blocks of :data:`PARAMETER_NAMES` (shapes from
-    :func:`parameter_shapes`, values from :func:`pack_parameters`). Outputs: ``cost`` and each
-    term of :data:`~dsmpepc_nlp.core.costs.TERM_NAMES`.
+    :func:`parameter_shapes`, values from :func:`pack_parameters`; the configuration's numbers
+    are the ``settings`` block, so one graph serves every configuration of the same
+    :func:`.settings.structure`). Outputs: ``cost`` and each term of
+    :data:`~dsmpepc_nlp.core.costs.TERM_NAMES`. A ``smoothing`` other than the configuration's
+    is built in as constants.
 
     An MX graph of small SX functions (the rollout, one pose's geometry called N+1 times, the
     terminal ray, the assembly) and the table look-ups: each piece and its derivatives exist
     once in generated code, so it compiles in seconds, not minutes.
     """
-    smoothing = config.smoothing if smoothing is None else smoothing
+    sizes = resolved_sizes(config, sizes)
     shapes = parameter_shapes(config, sizes)
-    n_steps, dt = config.horizon.n_steps, config.horizon.dt
+    n_steps = config.horizon.n_steps
     z_sx, state_sx = ca.SX.sym("z", 4), ca.SX.sym("state", 5)
-    rollout = ca.Function("dsmpepc_rollout", [z_sx, state_sx],
-                          list(_rollout(z_sx, state_sx, config, smoothing)))
+    q, sym_config, sym_smoothing = _symbolic(config, smoothing)
+    rollout = ca.Function("dsmpepc_rollout", [z_sx, state_sx, q],
+                          list(_rollout(z_sx, state_sx, sym_config, sym_smoothing)))
     pose_query, pose_geometry = _pose_functions(config, sizes, smoothing)
     object_kept = _object_function(config, sizes, smoothing)
     ray_query, terminal = _terminal_functions(config, sizes, smoothing)
@@ -487,33 +531,34 @@ def build_cost_function(config: PlannerConfig, sizes: GraphSizes, smoothing=None
     lookup = table_lookup(sizes)
     z = ca.MX.sym("z", 4)
     p = {name: ca.MX.sym(name, *shape) for name, shape in shapes.items()}
+    settings = p["settings"]
     objects = (p["obstacle_circles"], p["obstacle_velocities"])
     c_obj = sizes.circles_per_object
-    poses, vs, omegas = rollout(z, p["state"])
+    poses, vs, omegas = rollout(z, p["state"], settings)
     distances, inverses, kept = [], [], []
     for k in range(n_steps + 1):
         pose, speed = poses[:, k], vs[min(k, n_steps - 1)]
-        raw = _lookups(lookup, pose_query(pose, p["map_frame"]), p["map_table"])
-        d, inv = pose_geometry(pose, speed, raw, p["map_frame"])
+        raw = _lookups(lookup, pose_query(pose, p["map_frame"], settings), p["map_table"])
+        d, inv = pose_geometry(pose, speed, raw, p["map_frame"], settings)
         distances.append(d)
         inverses.append(inv)
         product = ca.MX(1.0)
         for j in range(sizes.k_pose):
-            product = product * object_kept(p["pose_mask"][k, j], pose, speed, k * dt,
+            product = product * object_kept(p["pose_mask"][k, j], pose, speed, k,
                                              p["pose_circles"][j * c_obj:(j + 1) * c_obj, :],
-                                             p["pose_velocities"][j, :])
+                                             p["pose_velocities"][j, :], settings)
         kept.append(product)
     inv_term = ca.MX(0)
     if config.terminal_cost:
         end = poses[:, -1]
-        raw = _lookups(lookup, ray_query(end, p["map_frame"]), p["map_table"])
-        inv_term = terminal(end, raw, p["map_frame"], *objects)
+        raw = _lookups(lookup, ray_query(end, p["map_frame"], settings), p["map_table"])
+        inv_term = terminal(end, raw, p["map_frame"], *objects, settings)
     nav_raw = _lookups(lookup, nav_query(poses, p["nav_frame"]), p["nav_table"])
     outputs = final(poses, vs, omegas, p["goal"], p["nav_frame"], nav_raw,
-                    ca.vertcat(*distances), ca.vertcat(*inverses), ca.vertcat(*kept), inv_term)
+                    ca.vertcat(*distances), ca.vertcat(*inverses), ca.vertcat(*kept), inv_term,
+                    settings)
     return ca.Function("dsmpepc_cost", [z, *(p[n] for n in PARAMETER_NAMES)], outputs,
                        ["z", *PARAMETER_NAMES], ["cost", *TERM_NAMES])
-
 
 # --- packing the world into parameters (numpy) ----------------------------------------------
 
@@ -640,6 +685,7 @@ def pack_parameters(cycle, sizes: GraphSizes) -> dict:
         "map_table": map_table,
         "nav_frame": nav_frame,
         "nav_table": nav_table,
+        "settings": settings_block.values(config),
     }
 
 

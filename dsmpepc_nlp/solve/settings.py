@@ -1,0 +1,119 @@
+"""The configuration's numbers as one parameter block of the compiled graph.
+
+A compiled library is keyed by the graph's structure, never by a number a user may tune: the
+weights, widths, limits, gains, step length, footprint circles and smoothing temperatures enter
+the graph as the ``settings`` parameter block (bound once per cycle with the rest of the world),
+so that changing any of them compiles nothing. What stays structural (and so in the key,
+:func:`structure`): the horizon's step count, the footprint's circle count, the two DS-MPEPC
+switches, ``ttg_along_nf``, the disabled terms, and the few values at which a formula takes
+another form (:data:`SPECIAL`: a smoothing temperature of 0 is the exact form; an infinite rate
+limit is no limit; ``lam = 2`` squares the curvature).
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+
+import numpy as np
+
+from ..core.config import PlannerConfig, SmoothingConfig
+
+SECTIONS = ("robot", "control_law", "horizon", "cost", "smoothing")
+"""Sections of :class:`PlannerConfig` whose float fields the graph may read."""
+
+SPECIAL = {"robot.accel_limit": (math.inf,), "robot.alpha_limit": (math.inf,),
+           "control_law.lam": (2.0,)}
+"""Values at which a formula changes form, so the value is structure (every smoothing
+temperature also has one: 0, the exact form)."""
+
+FOOTPRINT = ("cx", "cy", "radius")
+
+
+def names(config: PlannerConfig) -> tuple:
+    """The settings block's entries, in order: ``section.field`` for every float field of
+    :data:`SECTIONS`, then ``footprint.i.cx|cy|radius`` for each circle."""
+    out = []
+    for section in SECTIONS:
+        for field in dataclasses.fields(getattr(config, section)):
+            if field.type == "float":
+                out.append(f"{section}.{field.name}")
+    for i in range(len(config.robot.footprint)):
+        out.extend(f"footprint.{i}.{part}" for part in FOOTPRINT)
+    return tuple(out)
+
+
+def _value(config: PlannerConfig, name: str) -> float:
+    head, *rest = name.split(".")
+    if head == "footprint":
+        return config.robot.footprint[int(rest[0])][FOOTPRINT.index(rest[1])]
+    return getattr(getattr(config, head), rest[0])
+
+
+def values(config: PlannerConfig) -> np.ndarray:
+    """The settings block of ``config`` (float64, in :func:`names` order)."""
+    return np.array([float(_value(config, name)) for name in names(config)])
+
+
+def is_special(name: str, value) -> bool:
+    """True where ``value`` of entry ``name`` is structure (see :data:`SPECIAL`)."""
+    if name.startswith("smoothing."):
+        return value == 0
+    return value in SPECIAL.get(name, ())
+
+
+def _own_smoothing(config: PlannerConfig, smoothing) -> bool:
+    """True when the graph's temperatures are the configuration's (they are then parameters);
+    an override (e.g. :meth:`SmoothingConfig.exact`) is built in as constants."""
+    return smoothing is None or smoothing == config.smoothing
+
+
+def structure(config: PlannerConfig, smoothing: SmoothingConfig | None = None) -> tuple:
+    """What of ``config`` (and a smoothing override) shapes the graph: the key of a compiled
+    library, with every number that is a parameter left out."""
+    own = _own_smoothing(config, smoothing)
+    special = tuple((name, _value(config, name)) for name in names(config)
+                    if is_special(name, _value(config, name))
+                    and (own or not name.startswith("smoothing.")))
+    baked = None if own else dataclasses.astuple(smoothing)
+    cost = config.cost
+    return ("settings-v1", names(config), config.horizon.n_steps, config.anticipatory_pc,
+            config.terminal_cost, cost.ttg_along_nf, tuple(cost.disabled), special, baked)
+
+
+def symbolic(config: PlannerConfig, settings, smoothing: SmoothingConfig | None = None):
+    """``(config, smoothing)`` whose parameter numbers are entries of ``settings`` (a CasADi
+    vector in :func:`names` order); special values stay numbers.
+
+    The copies are not validated (their fields are symbols) and live only while a graph is
+    built. ``bounds`` and ``docking`` are None: the graph must not read them, and a read fails
+    loudly instead of building a number into the library.
+    """
+    index = {name: i for i, name in enumerate(names(config))}
+
+    def entry(name, value):
+        return value if is_special(name, value) else settings[index[name]]
+
+    sections = {}
+    for section in SECTIONS:
+        original = getattr(config, section)
+        mirror = copy.copy(original)
+        for field in dataclasses.fields(original):
+            if field.type == "float":
+                name = f"{section}.{field.name}"
+                object.__setattr__(mirror, field.name, entry(name, getattr(original, field.name)))
+        sections[section] = mirror
+    footprint = tuple(tuple(settings[index[f"footprint.{i}.{part}"]] for part in FOOTPRINT)
+                      for i in range(len(config.robot.footprint)))
+    object.__setattr__(sections["robot"], "footprint", footprint)
+    mirror = copy.copy(config)
+    for section, value in sections.items():
+        object.__setattr__(mirror, section, value)
+    object.__setattr__(mirror, "bounds", None)
+    object.__setattr__(mirror, "docking", None)
+    own = _own_smoothing(config, smoothing)
+    return mirror, (sections["smoothing"] if own else smoothing)
+
+
+__all__ = ["SECTIONS", "SPECIAL", "is_special", "names", "structure", "symbolic", "values"]

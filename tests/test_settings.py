@@ -1,0 +1,210 @@
+"""The configuration's numbers are parameters of the compiled graph, keyed by structure alone."""
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from dsmpepc_nlp.core.config import (
+    ControlLawConfig,
+    CostConfig,
+    HorizonConfig,
+    PlannerConfig,
+    RobotConfig,
+    SmoothingConfig,
+    SolverConfig,
+)
+from dsmpepc_nlp.core.control_law import rollout
+from dsmpepc_nlp.core.costs import TERM_NAMES, evaluate
+from dsmpepc_nlp.solve import cache, compiled, settings
+from dsmpepc_nlp.solve import nlp_global as g
+from dsmpepc_nlp.solve.cycle import Cycle
+from dsmpepc_nlp.solve.problem import structure_key
+
+SIZES = g.GraphSizes(max_objects=3, table_cells=48, pose_objects=2)
+
+
+def _other(config: PlannerConfig) -> PlannerConfig:
+    """``config`` with every number the graph reads changed (structure kept)."""
+    return dataclasses.replace(
+        config,
+        robot=RobotConfig(v_limit=0.8, omega_limit=1.2, accel_limit=2.0, alpha_limit=2.5,
+                          footprint=((0.05, -0.02, 0.27),)),
+        control_law=ControlLawConfig(k1=1.2, k2=2.5, beta=0.3, lam=2.0, r_thresh=1.0),
+        horizon=HorizonConfig(dt=0.25, n_steps=config.horizon.n_steps),
+        cost=CostConfig(sigma_static=0.05, sigma_dynamic=0.25, c_heading=0.3, c_v=0.15,
+                        c_w=0.12, c_collision=0.2, w_progress=1.1, w_action=0.9,
+                        w_terminal=1.3, a=0.6, s_ttc=0.37, s_ttg=2e-3, ttc_range=7.0),
+        smoothing=SmoothingConfig(distance=0.03, speed=0.03, acceleration=0.02, rate=0.03,
+                                  curvature=0.02, inverse_time=0.03, angle=0.02),
+    )
+
+
+def _scene(config):
+    from dsmpepc_nlp.bench.scenes import demo_cycles
+
+    state, world, goal = demo_cycles(config, 2, seed=0, n_samples=64)[1]
+    return Cycle.prepare(state, world, goal, config), (state, world, goal)
+
+
+def _evaluate(function, cycle, sizes, z):
+    params = g.pack_parameters(cycle, sizes)
+    out = function.map(len(z))(z.T, *(params[n] for n in g.PARAMETER_NAMES))
+    return {name: np.array(o).ravel() for name, o in zip(["cost", *TERM_NAMES], out)}
+
+
+def test_every_number_is_a_parameter_not_structure():
+    base = PlannerConfig()
+    other = _other(base)
+    assert settings.structure(base) == settings.structure(other)
+    assert structure_key(base, SIZES) == structure_key(other, SIZES)
+    assert not np.array_equal(settings.values(base), settings.values(other))
+    # Every float field of the sections the graph reads is in the block (derived, not listed).
+    for section in settings.SECTIONS:
+        for field in dataclasses.fields(getattr(base, section)):
+            if field.type == "float":
+                assert f"{section}.{field.name}" in settings.names(base)
+
+
+@pytest.mark.parametrize("change", [
+    dict(horizon=HorizonConfig(n_steps=20)),
+    dict(anticipatory_pc=False),
+    dict(terminal_cost=False),
+    dict(robot=RobotConfig(footprint=((0.2, 0, 0.3), (-0.2, 0, 0.3)))),
+    dict(robot=RobotConfig(accel_limit=math.inf)),
+    dict(control_law=ControlLawConfig(lam=3.0)),
+    dict(smoothing=SmoothingConfig.exact()),
+    dict(cost=CostConfig(disabled=("heading",))),
+    dict(cost=CostConfig(ttg_along_nf=True)),
+], ids=["steps", "pc", "terminal", "circles", "accel-inf", "lam", "exact", "disabled", "ttg-nf"])
+def test_structure_changes_the_key(change):
+    base = PlannerConfig()
+    assert structure_key(base, SIZES) != structure_key(dataclasses.replace(base, **change),
+                                                       SIZES)
+
+
+def test_a_graph_built_for_one_configuration_serves_another():
+    """The graph built from the defaults, given another configuration's settings, is that
+    configuration's graph to the bit: no number of the first is built in."""
+    base, other = PlannerConfig(), _other(PlannerConfig())
+    cycle, _ = _scene(other)
+    z = np.random.default_rng(1).uniform(other.z_lower, other.z_upper, (40, 4))
+    got = _evaluate(g.build_cost_function(base, SIZES), cycle, SIZES, z)
+    own = _evaluate(g.build_cost_function(other, SIZES), cycle, SIZES, z)
+    for name in got:
+        np.testing.assert_array_equal(got[name], own[name])
+    # ... and it is not the first configuration's cost.
+    first = _evaluate(g.build_cost_function(base, SIZES), _scene(base)[0], SIZES, z)
+    assert not np.allclose(first["cost"], got["cost"])
+
+
+def test_parametric_graph_at_exact_temperatures_is_the_exact_cost_of_another_configuration():
+    other = dataclasses.replace(_other(PlannerConfig()), anticipatory_pc=False)
+    cycle, (state, world, goal) = _scene(other)
+    z = np.random.default_rng(2).uniform(other.z_lower, other.z_upper, (60, 4))
+    exact = evaluate(rollout(z, state, other), world, goal, other)
+    sizes = g.GraphSizes()          # the whole map in the window, as the exact cost reads it
+    got = _evaluate(g.build_cost_function(other, sizes, SmoothingConfig.exact()), cycle, sizes,
+                    z)
+    for name in ("progress", "action", "heading", "collision"):
+        np.testing.assert_allclose(got[name], exact.terms[name], atol=1e-9)
+
+
+def test_a_settings_layout_change_gives_a_new_library_key(monkeypatch):
+    config = PlannerConfig()
+    key = compiled.library_key(*structure_key(config, SIZES))
+    monkeypatch.setattr(settings, "SECTIONS", tuple(reversed(settings.SECTIONS)))
+    assert compiled.library_key(*structure_key(config, SIZES)) != key
+
+
+def test_source_closure_is_derived_from_the_imports(tmp_path, monkeypatch):
+    monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
+    names = {p.name for p in cache.source_closure("dsmpepc_nlp.solve.nlp_global")}
+    # The graph's own modules and what they import, not the planner that uses them.
+    assert {"nlp_global.py", "settings.py", "costs.py", "control_law.py", "smooth.py",
+            "cycle.py", "config.py"} <= names
+    assert "planner.py" not in names and "simulate.py" not in names
+    kernel = {p.name for p in cache.source_closure("dsmpepc_nlp.solve._exact_kernel")}
+    assert "cycle.py" in kernel           # the kernel freezes cycle.PARAMETERS' positions
+    first = cache.sources_hash("dsmpepc_nlp.solve._exact_kernel")
+    assert cache.sources_hash("dsmpepc_nlp.solve._exact_kernel") == first   # memo read back
+
+
+def test_sources_hash_follows_an_edit(tmp_path, monkeypatch):
+    """A module of the closure edited (here: a copy of the package) gives a new hash."""
+    import shutil
+
+    package = tmp_path / "dsmpepc_nlp"
+    shutil.copytree(cache._PACKAGE, package, ignore=shutil.ignore_patterns("__pycache__"))
+    monkeypatch.setattr(cache, "_PACKAGE", package)
+    monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path / "cache"))
+    before = cache.sources_hash("dsmpepc_nlp.solve._exact_kernel")
+    cycle = package / "solve" / "cycle.py"
+    cycle.write_text(cycle.read_text() + "\n# an edit\n")
+    assert cache.sources_hash("dsmpepc_nlp.solve._exact_kernel") != before
+
+
+def test_prune_bounds_the_cache_and_drops_other_versions(tmp_path, monkeypatch):
+    monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
+    here = cache.cache_dir("casadi")
+    old = tmp_path / "0.0.1" / "casadi"
+    old.mkdir(parents=True)
+    (old / "nlp_old.so").write_bytes(b"x" * 10)
+    for i in range(5):
+        path = here / f"nlp_{i}.so"
+        path.write_bytes(b"x" * 1000)
+        import os
+
+        os.utime(path, (1000.0 + i, 1000.0 + i))   # older first
+    newest = here / "nlp_4.so"
+    import os
+
+    os.utime(newest, None)
+    removed = cache.prune(max_bytes=2500, max_idle_days=1e9)
+    left = sorted(p.name for p in here.iterdir())
+    assert left == ["nlp_3.so", "nlp_4.so"]
+    assert not (tmp_path / "0.0.1").exists()
+    assert {e["path"].name for e in removed} >= {"nlp_0.so", "nlp_1.so", "nlp_2.so"}
+    removed = cache.prune(max_bytes=10**9, max_idle_days=1.0)   # nlp_3 is years old
+    assert [p.name for p in here.iterdir()] == ["nlp_4.so"]
+    assert cache.clear() == 1000
+    assert not tmp_path.exists() or not any(tmp_path.iterdir())
+
+
+def test_build_lock_serialises_builders(tmp_path):
+    import threading
+    import time
+
+    order = []
+
+    def build(name):
+        with cache.build_lock(tmp_path / "lib.so"):
+            order.append(f"{name}-in")
+            time.sleep(0.05)
+            order.append(f"{name}-out")
+
+    threads = [threading.Thread(target=build, args=(n,)) for n in "ab"]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert order[0][0] == order[1][0] and order[2][0] == order[3][0]
+
+
+def test_problem_binds_the_settings_and_the_difference_steps():
+    from dsmpepc_nlp.solve.problem import Problem
+
+    other = _other(PlannerConfig())
+    cycle, _ = _scene(other)
+    problem = Problem(other, SIZES, SolverConfig())
+    p = problem.pack(cycle)
+    assert p.size == problem.n_params
+    np.testing.assert_array_equal(p[-4:], SolverConfig().fd_step
+                                  * (np.array(other.z_upper) - np.array(other.z_lower)))
+    problem.bind(p)
+    z = np.array([2.0, 0.1, -0.2, 0.6])
+    cost = g.build_cost_function(other, SIZES)
+    params = g.pack_parameters(cycle, SIZES)
+    expected = float(cost(z, *(params[n] for n in g.PARAMETER_NAMES))[0])
+    assert problem.f(z) == pytest.approx(expected, rel=1e-12, abs=1e-12)
