@@ -27,7 +27,7 @@ from dsmpepc_nlp.core.config import (
     RobotState,
 )
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
-from dsmpepc_nlp.solve import exact
+from dsmpepc_nlp.solve import cache, exact
 from dsmpepc_nlp.solve.cycle import PARAMETERS, Cycle
 from dsmpepc_nlp.solve.sampling import evaluate_batch, exact_totals
 
@@ -246,8 +246,12 @@ def test_fallback_warns_once_and_agrees(tmp_path):
 
 @needs_kernel
 def test_cache_path_names_version_and_source():
+    import numba
+
     path = exact.kernel_cache_dir()
-    assert path.name == exact.kernel_source_hash()
+    # The kernel's source closure (the kernel and what it imports) and numba's version.
+    assert exact.kernel_source_hash() in path.name and numba.__version__ in path.name
+    assert path.parent.parent.name == cache.package_version()
     assert any(path.rglob("*.nbi")), "the compiled kernel is cached on disk"
 
 

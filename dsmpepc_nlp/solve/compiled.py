@@ -14,7 +14,7 @@ evaluation for the trust-region Newton method). Without a compiler, or with
 from __future__ import annotations
 
 import ctypes
-import hashlib
+import functools
 import os
 import shutil
 import subprocess
@@ -24,42 +24,53 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from .cache import cache_dir, compile_enabled, config_key, warn_once
+from .cache import (
+    build_lock,
+    cache_dir,
+    compile_enabled,
+    config_key,
+    prune,
+    sources_hash,
+    touch,
+    warn_once,
+)
 
 NAMES = ("F", "G", "H")
 """Generated functions of ``(z, p)``: ``F -> f``, ``G -> (f, grad)``, ``H -> (f, grad, hess)``."""
+@functools.lru_cache(maxsize=1)
 def source_hash() -> str:
-    """Hash of the modules that define the graph: a code change never loads stale C."""
-    here = Path(__file__).resolve().parent
-    files = [here / "nlp_global.py", here / "compiled.py",
-             here.parent / "core" / "costs.py", here.parent / "core" / "control_law.py",
-             here.parent / "core" / "smooth.py", here.parent / "core" / "geometry.py"]
-    digest = hashlib.sha1()
-    for path in files:
-        digest.update(path.read_bytes())
-    return digest.hexdigest()[:12]
+    """Hash of every module the generated code is made from (:func:`.cache.source_closure` of
+    the graph and this file): a code change never loads stale C."""
+    return sources_hash(f"{__package__}.nlp_global", __name__)
 
 
-def problem_functions(cost: ca.Function, fd_step, hessian="differences") -> dict:
+def problem_functions(cost: ca.Function, fd_step=None, hessian="differences") -> dict:
     """``F``, ``G``, ``H`` (and ``adj1_F`` for ``nlpsol``) from the cost graph.
 
     ``cost(z, p) -> f`` takes the flat parameter vector; it is inlined, so the gradient's
     reverse sweep is built for ``z`` only. ``hessian``: ``differences`` (forward differences
     of the gradient with steps ``fd_step`` (4,), symmetrised: a bilinear table has no
-    curvature to add) or ``exact`` (forward over reverse through the whole graph).
+    curvature to add) or ``exact`` (forward over reverse through the whole graph). With
+    ``fd_step`` None the four steps are parameters: the functions' ``p`` is the cost's
+    followed by the steps (the box's size, hence the steps, is a setting, not structure).
     """
-    z, p = ca.MX.sym("z", 4), ca.MX.sym("p", cost.size1_in(1))
-    f = cost.call([z, p], True, False)[0]
+    n_cost = cost.size1_in(1)
+    z, p = ca.MX.sym("z", 4), ca.MX.sym("p", n_cost + (4 if fd_step is None else 0))
+    f = cost.call([z, p[:n_cost] if fd_step is None else p], True, False)[0]
     grad = ca.gradient(f, z)
     G = ca.Function("G", [z, p], [f, grad])
     if hessian == "exact":
         hess = ca.jacobian(grad, z)
     else:
+        steps = [p[n_cost + i] for i in range(4)] if fd_step is None else list(fd_step)
         columns = []
         for i in range(4):
-            step = np.zeros(4)
-            step[i] = fd_step[i]
-            columns.append((G(z + step, p)[1] - grad) / fd_step[i])
+            if fd_step is None:
+                step = ca.vertcat(*(steps[i] if j == i else 0.0 for j in range(4)))
+            else:
+                step = np.zeros(4)
+                step[i] = fd_step[i]
+            columns.append((G(z + step, p)[1] - grad) / steps[i])
         hess = ca.horzcat(*columns)
     F = ca.Function("F", [z, p], [f])
     H = ca.Function("H", [z, p], [f, grad, 0.5 * (hess + hess.T)])
@@ -216,7 +227,19 @@ def compile_library(functions: dict, key: str, flags=COMPILE_FLAGS) -> Path | No
         return None
     library = _library_path(key)
     if library.exists():
+        touch(library)
         return library
+    with build_lock(library):
+        if library.exists():          # built by another process while this one waited
+            return library
+        built = _compile(functions, key, library, compiler, flags)
+    if built is not None:
+        prune(keep=(built,))
+    return built
+
+
+def _compile(functions: dict, key: str, library: Path, compiler: str, flags) -> Path | None:
+    """Generate, specialise and compile the C of ``functions`` into ``library``."""
     with tempfile.TemporaryDirectory(dir=library.parent) as work:
         generator = ca.CodeGenerator(f"nlp_{key}.c", {"with_header": False})
         for function in functions.values():
@@ -380,20 +403,52 @@ class Compiled:
 
 
 def build(make_cost, fd_step, key_parts: tuple, hessian="differences") -> Compiled:
-    """Compile (or load from the cache) the problem's functions for one configuration.
+    """Compile (or load from the cache) the problem's functions for one structure.
 
     ``make_cost()`` returns the cost graph ``cost(z, p) -> f``. It is called only when the
     library is not in the cache (or runs on the virtual machine): building the graph and its
-    derivatives takes ~0.2 s a configuration, loading the cached library 4-9 ms, so that a
-    planner meeting a new object bucket mid-run does not miss its control period.
+    derivatives takes ~0.2 s, loading the cached library a few ms, so that a planner meeting a
+    new object bucket mid-run does not miss its control period. ``fd_step`` None: the
+    difference steps are parameters (:func:`problem_functions`). The key holds ``key_parts``
+    (the structure), the sources, CasADi's version, the compiler and its flags.
     """
-    key = config_key(*key_parts, hessian, tuple(np.asarray(fd_step, dtype=float).tolist()),
-                     source_hash(), ca.__version__)
+    steps = None if fd_step is None else tuple(np.asarray(fd_step, dtype=float).tolist())
+    key = config_key(*key_parts, hessian, steps, source_hash(), ca.__version__,
+                     _compiler_identity(), COMPILE_FLAGS)
     library = _library_path(key)
     if _usable_compiler() is not None and library.exists():
+        touch(library)
         return Compiled(None, library)
     functions = problem_functions(make_cost(), fd_step, hessian)
     return Compiled(functions, compile_library(functions, key))
+
+
+def compiling_possible() -> bool:
+    """True when a library can be compiled (compilation on, a compiler found)."""
+    return compile_enabled() and _compiler() is not None
+
+
+def is_cached(key: str) -> bool:
+    """True when the library of ``key`` is in the cache."""
+    return _library_path(key).exists()
+
+
+def library_key(*key_parts, hessian="differences", fd_step=None) -> str:
+    """The cache key :func:`build` gives these arguments (for tests and ``dsmpepc cache``)."""
+    steps = None if fd_step is None else tuple(np.asarray(fd_step, dtype=float).tolist())
+    return config_key(*key_parts, hessian, steps, source_hash(), ca.__version__,
+                      _compiler_identity(), COMPILE_FLAGS)
+
+
+@functools.lru_cache(maxsize=1)
+def _compiler_identity() -> str:
+    """The compiler's resolved path, size and modification time: a new compiler, a new key."""
+    compiler = _compiler()
+    if compiler is None:
+        return "none"
+    path = Path(compiler).resolve()
+    stat = path.stat()
+    return f"{path}:{stat.st_size}:{stat.st_mtime_ns}"
 
 
 __all__ = ["BOUND_NAMES", "CFunction", "Compiled", "build", "compile_library", "problem_functions",

@@ -17,7 +17,6 @@ vector), so one compiled kernel serves every configuration.
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import importlib
 import os
 import threading
@@ -30,24 +29,24 @@ from ..core.config import VARIANTS, PlannerConfig, RobotState
 from ..core.control_law import Trajectory, rollout
 from ..core.costs import CostBreakdown
 from ..core.world import DynamicObstacle, OccupancyGrid, World
-from .cache import cache_dir, compile_enabled, warn_once
+from .cache import compile_enabled, numba_folder, sources_hash, warn_once
 from .cycle import Cycle
 
-_KERNEL_FILE = Path(__file__).with_name("_exact_kernel.py")
+_KERNEL_MODULE = f"{__package__}._exact_kernel"
 _LOCK = threading.Lock()
-_STATE = {"kernel": None, "failed": "", "numpy_only": False}
+_STATE = {"kernel": None, "failed": "", "numpy_only": False, "loading": None}
 
 
 def kernel_source_hash() -> str:
-    """Hash of the kernel's source: part of the cache path, so an edit recompiles."""
-    return hashlib.sha1(_KERNEL_FILE.read_bytes()).hexdigest()[:16]
+    """Hash of the kernel's sources (the kernel and every module of the package it imports):
+    part of the cache path, so an edit to any of them recompiles."""
+    return sources_hash(_KERNEL_MODULE)
 
 
 def kernel_cache_dir() -> Path:
-    """Where the compiled kernel is cached (package version and source hash in the path)."""
-    path = cache_dir("numba") / kernel_source_hash()
-    path.mkdir(parents=True, exist_ok=True)
-    return path
+    """Where the compiled kernel is cached (package version, source closure and numba version
+    in the path)."""
+    return numba_folder(_KERNEL_MODULE)
 
 
 def kernel():
@@ -58,6 +57,9 @@ def kernel():
     """
     if _STATE["numpy_only"]:
         return None
+    loading = _STATE["loading"]
+    if loading is not None and loading.is_alive() and threading.current_thread() is not loading:
+        return None               # being loaded in the background (preload): numpy meanwhile
     if not compile_enabled():     # read on every call, so that it holds from when it is set
         warn_once("exact-compile", "exact cost on the numpy path, slower (compiled evaluator "
                   "off: DSMPEPC_NO_COMPILE is set)")
@@ -75,6 +77,26 @@ def kernel():
         warn_once("exact-compile", f"exact cost on the numpy path, slower (compiled evaluator "
                   f"off: {_STATE['failed']})")
     return _STATE["kernel"]
+
+
+def preload() -> None:
+    """Load the compiled kernel in a background thread (numba's import and the cached kernel
+    take ~0.6 s); until it is there, :func:`kernel` answers None and the exact cost runs on
+    the numpy path (the same costs to ~1e-12), so a robot's first plan does not wait for it.
+    :func:`wait_for_kernel` waits for it."""
+    if _STATE["kernel"] is not None or _STATE["loading"] is not None or not compile_enabled():
+        return
+    thread = threading.Thread(target=kernel, name="dsmpepc-kernel-load", daemon=True)
+    _STATE["loading"] = thread
+    thread.start()
+
+
+def wait_for_kernel():
+    """:func:`kernel`, after a :func:`preload` in progress has finished."""
+    loading = _STATE["loading"]
+    if loading is not None:
+        loading.join()
+    return kernel()
 
 
 @contextlib.contextmanager

@@ -11,15 +11,13 @@ come from one CasADi ``Function`` call; a trial point costs one objective call.
 
 from __future__ import annotations
 
-import hashlib
 import itertools
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from .cache import cache_dir, compile_enabled, warn_once
+from .cache import compile_enabled, numba_folder, warn_once
 from .threads import run_starts
 
 _FACES = {}
@@ -74,10 +72,8 @@ def _kernel():
         _KERNEL["module"] = None
         from .exact import import_numba_module
 
-        source = Path(__file__).with_name("_newton_kernel.py").read_bytes()
-        folder = cache_dir("numba") / hashlib.sha1(source).hexdigest()[:16]
         try:
-            folder.mkdir(parents=True, exist_ok=True)
+            folder = numba_folder(f"{__package__}._newton_kernel")
             _KERNEL["module"] = import_numba_module("._newton_kernel", folder)
         except (ImportError, OSError):
             pass
