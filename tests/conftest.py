@@ -18,6 +18,10 @@ settings.register_profile(
 )
 # HYPOTHESIS_PROFILE=slow runs the fuzzing suites with 10,000 examples each.
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))
+# Plans compile the NLP's library in the plan when it is missing (not in the background with
+# the sampler answering meanwhile), so that a test's plans do not depend on what the cache held
+# when it started; tests of the background mode set it themselves.
+os.environ.setdefault("DSMPEPC_COMPILE", "wait")
 
 
 @pytest.fixture(autouse=True)

@@ -79,6 +79,7 @@ def crosscheck(cycles, config: PlannerConfig, solver_config: SolverConfig | None
 
     solver_config = SolverConfig() if solver_config is None else solver_config
     nlp = Planner(config, solver_config)
+    nlp.prepare()
     sampler = Planner(config, SolverConfig.sampling(n_samples=n_samples,
                                                     seed=solver_config.seed))
     nlp_cost, sampled_cost, statuses = [], [], []

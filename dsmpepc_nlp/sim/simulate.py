@@ -97,6 +97,10 @@ class _Loop:
         self.configs = [config if a.robot is None else dataclasses.replace(config, robot=a.robot)
                         for a in agents]
         self.planners = [planner_factory(c, solver) for c in self.configs]
+        for planner in self.planners:   # compile ahead: no cycle of an episode plans on a fallback
+            prepare = getattr(planner, "prepare", None)
+            if prepare is not None:
+                prepare()
         self.footprints = [np.array(c.robot.footprint) for c in self.configs]
         self.states = start_states(scenario, rng)  # noise first, then the free-space checks
         self.base_world = World(scenario.grid)

@@ -23,6 +23,7 @@ import numpy as np
 from ..core.config import PlannerConfig, SolverConfig
 from . import nlp_global, solvers, threads
 from .nlp_global import PARAMETER_NAMES, GraphSizes, pack_parameters, parameter_shapes
+from .problem import readiness
 from .records import StartRecord
 from .sampling import box_samples, exact_totals
 
@@ -108,6 +109,19 @@ class NlpSolver:
         buckets = self.solver_config.pose_object_buckets
         bucket = next((b for b in buckets if b >= in_reach), buckets[-1])
         return dataclasses.replace(self.sizes, pose_objects=bucket)
+
+    def readiness(self, cycle) -> tuple:
+        """``(ready, note)`` of ``cycle``'s problem (:func:`.problem.readiness`): not ready
+        while its library compiles in a child process."""
+        return readiness(self.config, self.sizes_for(cycle), self.solver_config)
+
+    def prepare(self) -> float:
+        """Build (compile, or load) the problem of every object bucket now; seconds spent."""
+        started = time.perf_counter()
+        for bucket in self.solver_config.pose_object_buckets:
+            sizes = dataclasses.replace(self.sizes, pose_objects=bucket)
+            self._seen.add(solvers.problem(self.config, sizes, self.solver_config))
+        return time.perf_counter() - started
 
     def problem(self, cycle) -> solvers.Problem:
         """The compiled problem for ``cycle`` (built or loaded on first use)."""

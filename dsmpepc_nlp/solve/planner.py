@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import time
 from dataclasses import dataclass, field
 
@@ -13,14 +14,22 @@ from ..core.config import PlannerConfig, RobotState, SolverConfig
 from ..core.control_law import Trajectory, rollout, z_from_target
 from ..core.costs import TERM_NAMES, CostBreakdown
 from ..core.errors import InputError
+from . import exact
 from .cycle import Cycle
 from .nlp import NlpSolver
 from .records import StartRecord  # noqa: F401 (re-exported: Plan.starts holds them)
 from .sampling import Evaluation, SamplingPlanner, clip_to_bounds, evaluate_batch, structured_starts
 
-STATUSES = ("nlp", "sampling", "sampling-fallback", "docked", "stopped")
+STATUSES = ("nlp", "sampling", "sampling-fallback", "sampling-compiling", "docked", "stopped")
 """Where a plan came from: the NLP, the sampler as chosen solver, the sampler after every NLP
-start failed, docking at a fixed goal, or the stop trajectory when nothing finite was found."""
+start failed, the sampler while the NLP's library for this cycle's structure compiles in the
+background, docking at a fixed goal, or the stop trajectory when nothing finite was found."""
+
+COMPILE_MODES = ("background", "wait")
+"""What :meth:`Planner.plan` does when the NLP's library for a cycle is not compiled yet:
+``background`` (default) compiles it in a child process and plans with the sampler meanwhile
+(status ``sampling-compiling``); ``wait`` compiles it in the plan (seconds to a minute).
+``$DSMPEPC_COMPILE`` sets the default; :meth:`Planner.prepare` compiles everything ahead."""
 
 
 @dataclass(frozen=True)
@@ -89,17 +98,42 @@ class Planner:
     solver : SolverConfig
         IPOPT by default; ``SolverConfig.fast()`` or ``SolverConfig.sampling()``.
 
-    The NLP graph and solver are built here, once; :meth:`plan` only sets parameters.
+    compile : str, optional
+        One of :data:`COMPILE_MODES` (default: ``$DSMPEPC_COMPILE``, else ``background``).
+
+    The NLP solver is built here, once; the compiled problem of each object bucket is loaded
+    on first use (or by :meth:`prepare`), and :meth:`plan` only sets parameters. A plan never
+    waits for a compiler unless ``compile="wait"``.
     """
 
-    def __init__(self, config: PlannerConfig | None = None, solver: SolverConfig | None = None):
+    def __init__(self, config: PlannerConfig | None = None, solver: SolverConfig | None = None,
+                 *, compile: str | None = None):
         self.config = PlannerConfig() if config is None else config
         self.solver = SolverConfig() if solver is None else solver
+        mode = os.environ.get("DSMPEPC_COMPILE", "background") if compile is None else compile
+        if mode not in COMPILE_MODES:
+            raise InputError(f"compile = {mode!r} (or $DSMPEPC_COMPILE): must be one of "
+                             f"{', '.join(COMPILE_MODES)}")
+        self.compile = mode
+        if mode == "background":
+            exact.preload()
         self.sampler = SamplingPlanner(self.config, self.solver)
         self.nlp = None
         if self.solver.method != "sampling":
             self.nlp = NlpSolver(self.config, self.solver)
         self._previous_target = None
+
+    def prepare(self) -> dict:
+        """Compile (or load) everything a plan may need, now: the NLP's problem of every object
+        bucket and the compiled exact evaluator. Call it before a control loop (simulations
+        and benchmarks do) so that no plan runs on a fallback while a library compiles.
+
+        Returns ``{"nlp_s": seconds, "exact_s": seconds}``.
+        """
+        started = time.perf_counter()
+        nlp_s = self.nlp.prepare() if self.nlp is not None else 0.0
+        exact.wait_for_kernel()
+        return {"nlp_s": nlp_s, "exact_s": time.perf_counter() - started - nlp_s}
 
     def reset(self) -> None:
         """Forget the warm start (a new episode)."""
@@ -148,7 +182,12 @@ class Planner:
         plan, evaluated, records = None, None, ()
         if dock and cycle is not None:
             plan = _attempt(trouble, "docking", self._dock, cycle)
-        if plan is None and self.nlp is not None and cycle is not None:
+        compiling = ""
+        if plan is None and self.nlp is not None and cycle is not None \
+                and self.compile == "background":
+            ready, compiling = _attempt(trouble, "the NLP's readiness", self.nlp.readiness,
+                                        cycle) or (True, "")
+        if plan is None and self.nlp is not None and cycle is not None and not compiling:
             records = _attempt(trouble, "the NLP", self._solve_nlp, cycle, starts) or ()
             plan = _attempt(trouble, "the NLP's verdict", self._choose_nlp, records, cycle)
             if sample:
@@ -158,7 +197,8 @@ class Planner:
                                               cycle, starts)
             if evaluated is not None:
                 plan = _attempt(trouble, "the sampled verdict", self._from_evaluation,
-                                evaluated, state, fallback=self.nlp is not None, records=records)
+                                evaluated, state, fallback=self.nlp is not None, records=records,
+                                compiling=compiling)
         if plan is None:
             plan = self._stop(state, records)
         if trouble:
@@ -214,10 +254,15 @@ class Planner:
         message = f"NLP: best of {len(records)} starts is '{best.name}' ({best.status})"
         return self._plan_from(ev, 0, "nlp", True, message, nit, records)
 
-    def _from_evaluation(self, evaluated: Evaluation, state, *, fallback: bool, records) -> Plan:
+    def _from_evaluation(self, evaluated: Evaluation, state, *, fallback: bool, records,
+                         compiling: str = "") -> Plan:
         index = evaluated.best()
         if index is None:
             return self._stop(state, records)
+        if compiling:
+            return self._plan_from(evaluated, index, "sampling-compiling", True,
+                                   f"{compiling}: best of {len(evaluated.z)} sampled "
+                                   "trajectories used", 0, ())
         if fallback:
             return self._plan_from(evaluated, index, "sampling-fallback", False,
                                    "every NLP start failed; best sampled trajectory used",

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.config import PlannerConfig, SolverConfig
-from . import compiled, nlp_global
+from . import background, compiled, nlp_global, settings
 from .cache import compile_enabled
 
 
@@ -75,17 +75,20 @@ class Problem:
         self.config, self.sizes = config, sizes
         self.lower = np.array(config.z_lower, dtype=float)
         self.upper = np.array(config.z_upper, dtype=float)
-        step = solver.fd_step * (self.upper - self.lower)
+        # The difference steps follow the box, a setting: parameters, like the configuration's
+        # numbers (the ``settings`` block), so the library is keyed by structure alone.
+        self.steps = solver.fd_step * (self.upper - self.lower)
         hessian = "exact" if solver.hessian == "exact" else "differences"
-        self.functions = compiled.build(lambda: nlp_global.flat_cost(config, sizes), step,
-                                        (config, sizes, "global"), hessian)
+        self.functions = compiled.build(lambda: nlp_global.flat_cost(config, sizes), None,
+                                        structure_key(config, sizes), hessian)
         self.n_params = self.functions.n_params
         self.p = np.zeros(self.n_params)
         self.build_s = time.perf_counter() - started
 
     def pack(self, cycle) -> np.ndarray:
-        """The flat parameter vector of ``cycle`` for this graph."""
-        return nlp_global.flatten_parameters(nlp_global.pack_parameters(cycle, self.sizes))
+        """The flat parameter vector of ``cycle`` for this graph (the difference steps last)."""
+        flat = nlp_global.flatten_parameters(nlp_global.pack_parameters(cycle, self.sizes))
+        return np.concatenate([flat, self.steps])
 
     def bind(self, p: np.ndarray) -> None:
         """Use ``p`` for every evaluation until the next ``bind``."""
@@ -107,6 +110,15 @@ class Problem:
         return float(value.item()), gradient.reshape(-1).copy(), np.array(hessian)
 
 
+def structure_key(config: PlannerConfig, sizes) -> tuple:
+    """What a compiled library of ``config`` and ``sizes`` is keyed by: the graph's structure
+    (:func:`.settings.structure`), the sizes with the ray's samples resolved, and the parameter
+    layout; never a number that is a parameter."""
+    sizes = nlp_global.resolved_sizes(config, sizes)
+    shapes = nlp_global.parameter_shapes(config, sizes)
+    return (settings.structure(config), sizes, tuple(shapes.items()), "global")
+
+
 def problem(config: PlannerConfig, sizes, solver: SolverConfig) -> Problem:
     """The :class:`Problem` of a configuration, built (or loaded from the disk cache) once per
     process and shared by every planner of that configuration. Not for concurrent threads."""
@@ -116,10 +128,43 @@ def problem(config: PlannerConfig, sizes, solver: SolverConfig) -> Problem:
                     os.environ.get("DSMPEPC_CACHE_DIR", ""))
 
 
+def library_key(config: PlannerConfig, sizes, solver: SolverConfig) -> str:
+    """The cache key of the compiled library :func:`problem` loads for these arguments."""
+    hessian = _graph_knobs(solver).hessian
+    return compiled.library_key(*structure_key(config, sizes), hessian=hessian)
+
+
+def readiness(config: PlannerConfig, sizes, solver: SolverConfig) -> tuple:
+    """``(ready, note)``: ready when :func:`problem` returns without compiling (built in this
+    process, compiled in the cache, or no compiler: the virtual machine). Otherwise the
+    library is compiled in a child process (started here, once) and ``note`` says since when.
+    """
+    if not compiled.compiling_possible():
+        return True, ""
+    knobs = _graph_knobs(solver)
+    if (config, sizes, knobs) in _BUILT:
+        return True, ""
+    key = library_key(config, sizes, solver)
+    if compiled.is_cached(key):
+        return True, ""
+    status, seconds = background.state(key)
+    if status in ("done", "failed"):
+        return True, ""            # done: the library is there; failed: build it here
+    background.start(key, config, sizes, knobs)
+    return False, (f"the NLP's library for this structure ({sizes.k_pose} objects at a pose) "
+                   f"is compiling in the background ({seconds:.0f} s so far)")
+
+
+_BUILT: set = set()
+"""(config, sizes, knobs) of the problems built in this process."""
+
+
 @functools.lru_cache(maxsize=32)
 def _problem(config, sizes, knobs, compiling, folder) -> Problem:
     del compiling, folder                 # part of the key: a change of either builds anew
-    return Problem(config, sizes, knobs)
+    built = Problem(config, sizes, knobs)
+    _BUILT.add((config, sizes, knobs))
+    return built
 
 
 def _graph_knobs(solver: SolverConfig) -> SolverConfig:
@@ -141,4 +186,5 @@ def snap(z, lower, upper) -> np.ndarray:
     return np.where(upper - z < near, upper, z)
 
 
-__all__ = ["Problem", "SolveResult", "problem", "snap"]
+__all__ = ["Problem", "SolveResult", "library_key", "problem", "readiness", "snap",
+           "structure_key"]

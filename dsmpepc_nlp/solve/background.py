@@ -1,0 +1,67 @@
+"""Compiling a problem's library in a child process, so that no plan waits for a compiler.
+
+:func:`start` launches ``python -m dsmpepc_nlp.solve.background`` with the configuration on its
+standard input; the child builds the :class:`~dsmpepc_nlp.solve.problem.Problem` (compiling its
+library into the cache under the library's lock) and exits. A separate process, not a thread:
+building and generating the graph holds Python's lock for seconds, which a thread would take
+from the planner's control loop. The planner polls :func:`state` once a cycle and plans with
+the sampler until the library is there.
+"""
+
+from __future__ import annotations
+
+import pickle
+import subprocess
+import sys
+import time
+
+from .cache import warn_once
+
+_CHILDREN: dict = {}
+"""key -> (Popen, started at)."""
+
+
+def start(key, config, sizes, solver) -> None:
+    """Compile the problem of ``(config, sizes, solver)`` in a child process, once per ``key``
+    (a child that is running or done is not started again)."""
+    if key in _CHILDREN:
+        return
+    child = subprocess.Popen([sys.executable, "-m", __name__], stdin=subprocess.PIPE,
+                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        child.stdin.write(pickle.dumps((config, sizes, solver)))
+        child.stdin.close()
+    except OSError:
+        pass
+    _CHILDREN[key] = (child, time.monotonic())
+
+
+def state(key) -> tuple:
+    """``(status, seconds)`` of ``key``'s child: ``running``, ``done``, ``failed`` (one
+    warning line with the child's last words) or ``none`` (never started); seconds since it
+    started."""
+    if key not in _CHILDREN:
+        return "none", 0.0
+    child, started = _CHILDREN[key]
+    code = child.poll()
+    elapsed = time.monotonic() - started
+    if code is None:
+        return "running", elapsed
+    if code != 0:
+        tail = child.stderr.read().decode(errors="replace")[-300:] if child.stderr else ""
+        warn_once(f"background-{key}", f"compiling the NLP in the background failed ({tail}): "
+                  "the planner builds it in its own process")
+        return "failed", elapsed
+    return "done", elapsed
+
+
+def _main() -> int:
+    from .problem import Problem
+
+    config, sizes, solver = pickle.loads(sys.stdin.buffer.read())
+    Problem(config, sizes, solver)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(_main())
