@@ -232,8 +232,43 @@ def build_parser() -> argparse.ArgumentParser:
                         "buckets (about 30 s each the first time)")
     p.set_defaults(func=cmd_build)
 
+    p = sub.add_parser("cache", help="what is compiled and cached (entries, size, last use); "
+                       "'dsmpepc cache clear' empties it, 'dsmpepc cache prune' bounds it")
+    p.add_argument("action", nargs="?", choices=("show", "clear", "prune"), default="show")
+    p.add_argument("--json", action="store_true", help="print JSON on stdout")
+    p.set_defaults(func=cmd_cache)
+
     commands.register(sub, _scenario_options)
     return parser
+
+
+def cmd_cache(args) -> int:
+    from .solve import cache
+
+    if args.action == "clear":
+        freed = cache.clear()
+        print(f"cache cleared: {freed / 2**20:.1f} MB freed ({cache.cache_root()})")
+        return 0
+    removed = cache.prune() if args.action == "prune" else []
+    listed = cache.entries()
+    total = sum(e["bytes"] for e in listed)
+    if args.json:
+        print(json.dumps({"root": str(cache.cache_root()), "bytes": total,
+                          "bound_bytes": cache.MAX_CACHE_BYTES,
+                          "removed": [str(e["path"]) for e in removed],
+                          "entries": [dict(e, path=str(e["path"])) for e in listed]}))
+        return 0
+    if removed:
+        print(f"pruned {len(removed)} entries")
+    print(f"{cache.cache_root()}: {len(listed)} entries, {total / 2**20:.1f} MB "
+          f"(bound {cache.MAX_CACHE_BYTES / 2**20:.0f} MB; entries of other versions and "
+          f"unused for {cache.MAX_IDLE_DAYS:g} days are pruned after each compile)")
+    now = time.time()
+    for e in reversed(listed):
+        age = (now - e["last_used"]) / 3600.0
+        print(f"  {e['kind']:8s} {e['bytes'] / 2**20:7.2f} MB  used {age:7.1f} h ago  "
+              f"{e['version']}/{e['path'].name}")
+    return 0
 
 
 def cmd_build(args) -> int:

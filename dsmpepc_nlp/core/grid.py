@@ -11,7 +11,6 @@ import functools
 import math
 
 import numpy as np
-from scipy import ndimage
 
 from .errors import (
     MAX_COORDINATE,
@@ -81,6 +80,8 @@ def _distance_to_squares(marked):
     ny, nx = marked.shape
     centres = np.zeros((2 * ny + 1, 2 * nx + 1), dtype=bool)
     centres[1::2, 1::2] = marked
+    from scipy import ndimage  # here, not at the top: ~0.2 s of imports a map-less user skips
+
     features = ndimage.binary_dilation(centres, structure=np.ones((3, 3), dtype=bool))
     half_cells = ndimage.distance_transform_edt(~features)[1::2, 1::2]
     return 0.5 * half_cells

@@ -15,9 +15,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import ndimage
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import dijkstra
 
 from .errors import finite_vector, positive_number
 from .grid import OccupancyGrid, _interpolate, _points, _readonly
@@ -139,6 +136,8 @@ def _grid_graph(free, res, seeds, seed_weights):
     indptr[-1] = indptr[-2] + seeds.size
     indices = np.concatenate([neighbour[mask], seeds])
     data = np.concatenate([np.broadcast_to(length, (n, 8))[mask], seed_weights])
+    from scipy.sparse import csr_matrix  # imported on first use (see grid.py)
+
     return csr_matrix((data, indices, indptr), shape=(n + 1, n + 1))
 
 
@@ -219,11 +218,15 @@ class NavigationFunction:
         index = np.arange(ny * nx).reshape(ny, nx)
         seeds = self._seeds(free, to_goal, index)
         graph = _grid_graph(free, res, seeds, to_goal.ravel()[seeds] + res)
+        from scipy.sparse.csgraph import dijkstra  # imported on first use (see grid.py)
+
         dist = dijkstra(graph, directed=True, indices=ny * nx)[:-1].reshape(ny, nx) - res
 
         reached = np.isfinite(dist)
         if reached.all():
             return dist
+        from scipy import ndimage
+
         gap, (near_y, near_x) = ndimage.distance_transform_edt(~reached, return_indices=True)
         return np.where(reached, dist, dist[near_y, near_x] + gap * res)
 
