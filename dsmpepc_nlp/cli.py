@@ -272,18 +272,26 @@ def cmd_cache(args) -> int:
 
 
 def cmd_build(args) -> int:
+    import threading
+
+    nlp = {}
+    worker = None
+    if getattr(args, "nlp", False):     # the C compiles run in child processes meanwhile
+        from .solve.solvers import build as build_nlp
+
+        worker = threading.Thread(target=lambda: nlp.update(build_nlp()), daemon=True)
+        worker.start()
     result = build_exact()
     if not result["compiled"]:
         print("compiled evaluator off (DSMPEPC_NO_COMPILE or no numba): the numpy path runs")
-        return 0
-    print(f"exact evaluator ready for {', '.join(result['configurations'])} in "
-          f"{result['seconds']:.1f} s; cache: {result['cache']}")
-    if getattr(args, "nlp", False):
-        from .solve.solvers import build as build_nlp
-
-        nlp = build_nlp()
+    else:
+        print(f"exact evaluator ready for {', '.join(result['configurations'])} in "
+              f"{result['seconds']:.1f} s; cache: {result['cache']}")
+    if worker is not None:
+        worker.join()
         state = "compiled" if nlp["compiled"] else "on CasADi's virtual machine"
-        print(f"NLP graph ready ({state}) for {nlp['problems']} configurations in "
+        print(f"NLP graph ready ({state}) for {nlp['problems']} configurations "
+              f"({nlp['libraries']} libraries, {nlp['compiled_now']} compiled now) in "
               f"{nlp['seconds']:.1f} s")
     return 0
 

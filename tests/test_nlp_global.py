@@ -104,10 +104,14 @@ def _compile_into(tmp_path, monkeypatch):
     monkeypatch.delenv("DSMPEPC_NO_COMPILE", raising=False)
 
 
-def _small_parameters():
+def _small_cycle():
     state, world, goal = _demo()
-    cycle = Cycle.prepare(state, world, goal, SMALL_CONFIG)
-    return g.flatten_parameters(g.pack_parameters(cycle, SMALL_SIZES))
+    return Cycle.prepare(state, world, goal, SMALL_CONFIG)
+
+
+def _small_parameters():
+    """The graph's flat parameters (a ``Problem`` adds its difference steps: ``pack``)."""
+    return g.flatten_parameters(g.pack_parameters(_small_cycle(), SMALL_SIZES))
 
 
 @needs_compiler
@@ -159,7 +163,7 @@ def test_compiled_newton_loop_takes_the_python_loops_steps(tmp_path, monkeypatch
     _compile_into(tmp_path, monkeypatch)
     problem = solvers.Problem(SMALL_CONFIG, SMALL_SIZES, SolverConfig())
     assert problem.functions.compiled
-    problem.bind(_small_parameters())
+    problem.bind(problem.pack(_small_cycle()))
     if newton._kernel() is None:
         pytest.skip("numba missing")
     starts = _random_z(SMALL_CONFIG, 8, 7)
@@ -214,7 +218,7 @@ def test_ipopt_solves_on_threads_are_the_solves_one_after_another(tmp_path, monk
         monkeypatch.setenv("DSMPEPC_NO_COMPILE", "1")
     problem = solvers.Problem(SMALL_CONFIG, SMALL_SIZES, SolverConfig())
     assert problem.functions.compiled == compile_
-    problem.bind(_small_parameters())
+    problem.bind(problem.pack(_small_cycle()))
     starts = _random_z(SMALL_CONFIG, 5, 11)
     one = solvers.IpoptSolver(SolverConfig(solve_threads=1, max_iter=15))
     warm = one.solve(problem, starts[0]).lam_x

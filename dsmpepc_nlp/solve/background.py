@@ -1,11 +1,11 @@
 """Compiling a problem's library in a child process, so that no plan waits for a compiler.
 
-:func:`start` launches ``python -m dsmpepc_nlp.solve.background`` with the configuration on its
-standard input; the child builds the :class:`~dsmpepc_nlp.solve.problem.Problem` (compiling its
-library into the cache under the library's lock) and exits. A separate process, not a thread:
-building and generating the graph holds Python's lock for seconds, which a thread would take
-from the planner's control loop. The planner polls :func:`state` once a cycle and plans with
-the sampler until the library is there.
+:func:`start` launches a Python child process with the configuration on its standard input; the
+child builds the :class:`~dsmpepc_nlp.solve.problem.Problem` (compiling its library into the
+cache under the library's lock) and exits. A separate process, not a thread: building and
+generating the graph holds Python's lock for seconds, which a thread would take from the
+planner's control loop. The planner polls :func:`state` once a cycle and plans with the sampler
+until the library is there.
 """
 
 from __future__ import annotations
@@ -17,6 +17,10 @@ import time
 
 from .cache import warn_once
 
+_CHILD = ("import pickle, sys; from dsmpepc_nlp.solve.problem import Problem; "
+          "Problem(*pickle.loads(sys.stdin.buffer.read()))")
+"""The child's program: build (compile) the problem pickled on its standard input."""
+
 _CHILDREN: dict = {}
 """key -> (Popen, started at)."""
 
@@ -26,7 +30,7 @@ def start(key, config, sizes, solver) -> None:
     (a child that is running or done is not started again)."""
     if key in _CHILDREN:
         return
-    child = subprocess.Popen([sys.executable, "-m", __name__], stdin=subprocess.PIPE,
+    child = subprocess.Popen([sys.executable, "-c", _CHILD], stdin=subprocess.PIPE,
                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
         child.stdin.write(pickle.dumps((config, sizes, solver)))
@@ -55,13 +59,15 @@ def state(key) -> tuple:
     return "done", elapsed
 
 
-def _main() -> int:
-    from .problem import Problem
-
-    config, sizes, solver = pickle.loads(sys.stdin.buffer.read())
-    Problem(config, sizes, solver)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(_main())
+def run_all(jobs, workers: int) -> None:
+    """Compile ``jobs`` (``(key, config, sizes, solver)`` each) in at most ``workers`` child
+    processes at once; returns when every child has ended."""
+    queue, running = list(jobs), []
+    while queue or running:
+        while queue and len(running) < workers:
+            key, config, sizes, solver = queue.pop(0)
+            _CHILDREN.pop(key, None)
+            start(key, config, sizes, solver)
+            running.append(key)
+        time.sleep(0.05)
+        running = [key for key in running if state(key)[0] == "running"]

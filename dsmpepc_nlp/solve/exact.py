@@ -57,7 +57,7 @@ def kernel():
     """
     if _STATE["numpy_only"]:
         return None
-    loading = _STATE["loading"]
+    loading = _STATE.get("loading")
     if loading is not None and loading.is_alive() and threading.current_thread() is not loading:
         return None               # being loaded in the background (preload): numpy meanwhile
     if not compile_enabled():     # read on every call, so that it holds from when it is set
@@ -84,7 +84,7 @@ def preload() -> None:
     take ~0.6 s); until it is there, :func:`kernel` answers None and the exact cost runs on
     the numpy path (the same costs to ~1e-12), so a robot's first plan does not wait for it.
     :func:`wait_for_kernel` waits for it."""
-    if _STATE["kernel"] is not None or _STATE["loading"] is not None or not compile_enabled():
+    if _STATE["kernel"] is not None or _STATE.get("loading") or not compile_enabled():
         return
     thread = threading.Thread(target=kernel, name="dsmpepc-kernel-load", daemon=True)
     _STATE["loading"] = thread
@@ -93,7 +93,7 @@ def preload() -> None:
 
 def wait_for_kernel():
     """:func:`kernel`, after a :func:`preload` in progress has finished."""
-    loading = _STATE["loading"]
+    loading = _STATE.get("loading")
     if loading is not None:
         loading.join()
     return kernel()

@@ -91,8 +91,12 @@ class Problem:
         return np.concatenate([flat, self.steps])
 
     def bind(self, p: np.ndarray) -> None:
-        """Use ``p`` for every evaluation until the next ``bind``."""
-        self.p = np.ascontiguousarray(p, dtype=float)
+        """Use ``p`` (from :meth:`pack`) for every evaluation until the next ``bind``."""
+        p = np.ascontiguousarray(p, dtype=float)
+        if p.shape != (self.n_params,):        # compiled code would read past its end
+            raise ValueError(f"p has shape {p.shape}: this problem takes ({self.n_params},), "
+                             "from Problem.pack")
+        self.p = p
         self.functions.bind(self.p)
 
     def f(self, z) -> float:

@@ -119,26 +119,55 @@ class NewtonSolver:
                            **counts)
 
 
-def build(variants=None, solver: SolverConfig | None = None) -> dict:
+def build(variants=None, solver: SolverConfig | None = None, workers: int | None = None) -> dict:
     """Compile (or load) the graph of every built-in variant and object bucket ahead of use.
 
-    Also compiles the fast method's loop (numba, ~20 s on first use, cached like the
-    graph): run once, it keeps that out of the first fast plan.
+    The libraries missing from the cache compile in up to ``workers`` child processes at once
+    (default: the machine's cores, at most one per 1.5 GB of memory: a compile's ``cc1`` peaks
+    near 0.9 GB), then every problem is loaded here. Also compiles the fast method's loop
+    (numba, ~20 s on first use, cached like the graph): run once, it keeps that out of the first
+    fast plan.
 
-    Returns ``compiled`` (False on the virtual machine), ``seconds`` and ``problems`` (how
-    many configurations).
+    Returns ``compiled`` (False on the virtual machine), ``seconds``, ``problems`` (how many
+    configurations), ``libraries`` (distinct compiled structures) and ``compiled_now`` (how
+    many were compiled by this call).
     """
+    from . import background
+    from .problem import library_key
+
     solver = SolverConfig() if solver is None else solver
     started = time.perf_counter()
-    built = []
-    for name in VARIANTS if variants is None else variants:
-        for bucket in solver.pose_object_buckets:
-            sizes = nlp_global.GraphSizes(pose_objects=bucket)
-            built.append(problem(PlannerConfig.variant(name), sizes, solver))
+    wanted = [(PlannerConfig.variant(name), nlp_global.GraphSizes(pose_objects=bucket))
+              for name in (VARIANTS if variants is None else variants)
+              for bucket in solver.pose_object_buckets]
+    keys = {library_key(config, sizes, solver): (config, sizes) for config, sizes in wanted}
+    missing = [key for key in keys if not compiled_library_exists(key)]
+    background.run_all([(key, *keys[key], solver) for key in missing],
+                       workers or _build_workers())
+    built = [problem(config, sizes, solver) for config, sizes in wanted]
     if built and built[0].functions.compiled:
         _warm_newton_loop(built[0])
     return {"compiled": all(p.functions.compiled for p in built),
-            "seconds": time.perf_counter() - started, "problems": len(built)}
+            "seconds": time.perf_counter() - started, "problems": len(built),
+            "libraries": len(keys), "compiled_now": len(missing)}
+
+
+def compiled_library_exists(key: str) -> bool:
+    """True when the library of ``key`` is cached, or nothing can be compiled."""
+    from . import compiled
+
+    return not compiled.compiling_possible() or compiled.is_cached(key)
+
+
+def _build_workers() -> int:
+    import os
+
+    cores = os.cpu_count() or 1
+    try:
+        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return 1
+    return max(1, min(cores, int(memory // (1.5 * 2**30))))
 
 
 def _warm_newton_loop(problem: Problem) -> None:
