@@ -32,7 +32,7 @@ T_CORRIDOR_SEEN = (
     "does not reproduce: with the sampling solver (4096 samples, seed 0) DS-MPEPC creeps up the "
     "main corridor and stops beside the side corridor's entrance (deadlock at 23.8 s), its "
     "terminal term near -0.55 and progress near 0: the stop-facing-free-space hazard of "
-    "METHOD.md section 5. MPEPC deadlocks as the paper says."
+    "docs/method.md section 5.4. MPEPC deadlocks as the paper says."
 )
 
 
