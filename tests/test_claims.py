@@ -64,8 +64,9 @@ def test_following_a_pedestrian_ends_without_collision(name):
 
 
 # ---------------------------------------------------------------------------------------------
-# The claim map (dsmpepc claims, README "Where the claim holds"): cells of every family, asserting
-# what the full map found with the sampler (4096 samples, seed 0), not what the paper hoped.
+# The claim map (dsmpepc claims, docs/claims.md "Where the claim holds"): cells of every
+# family, asserting what the full map found with the sampler (4096 samples, seed 0), not what
+# the paper hoped.
 # The map runs the sampler whatever DSMPEPC_CLAIMS_SOLVER says, and so do these.
 
 MAP_FOUND = [
