@@ -32,7 +32,7 @@ T_CORRIDOR_SEEN = (
     "does not reproduce: with the sampling solver (4096 samples, seed 0) DS-MPEPC creeps up the "
     "main corridor and stops beside the side corridor's entrance (deadlock at 23.8 s), its "
     "terminal term near -0.55 and progress near 0: the stop-facing-free-space hazard of "
-    "METHOD.md section 5. MPEPC deadlocks as the paper says."
+    "docs/method.md section 5.4. MPEPC deadlocks as the paper says."
 )
 
 
@@ -64,8 +64,9 @@ def test_following_a_pedestrian_ends_without_collision(name):
 
 
 # ---------------------------------------------------------------------------------------------
-# The claim map (dsmpepc claims, README "Where the claim holds"): cells of every family, asserting
-# what the full map found with the sampler (4096 samples, seed 0), not what the paper hoped.
+# The claim map (dsmpepc claims, docs/claims.md "Where the claim holds"): cells of every
+# family, asserting what the full map found with the sampler (4096 samples, seed 0), not what
+# the paper hoped.
 # The map runs the sampler whatever DSMPEPC_CLAIMS_SOLVER says, and so do these.
 
 MAP_FOUND = [

@@ -1,4 +1,4 @@
-"""Configuration: METHOD.md defaults, validation that names the field, variants."""
+"""Configuration: docs/method.md defaults, validation that names the field, variants."""
 
 import dataclasses
 import math

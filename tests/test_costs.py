@@ -170,7 +170,8 @@ def test_mpepc_and_ds_differ_only_in_the_marked_terms():
 
 
 def test_terminal_cost_rewards_stopping_facing_free_space():
-    # The hazard METHOD.md names: a stop trajectory facing free space earns about -1.
+    # The hazard docs/method.md section 5.4 names: a stop trajectory facing free space earns
+    # about -1.
     stop = rollout(np.array([2.0, 0.0, 0.0, 0.0]), RobotState(0.0, 0.0, 0.0), DS)
     costs = evaluate(stop, World(), (5.0, 0.0), DS)
     assert costs.terms["terminal"] == pytest.approx(-1.0)

@@ -1,7 +1,7 @@
 """Hand-worked cases for what the mutation check (tools/mutation_check.py) found untested:
 the law's curvature off the axes, arcs, several-circle obstacles, time to collision against
 moving obstacles along a trajectory and at the horizon's end. Each expected value is computed
-here from METHOD.md's formulas, not from the package's helpers."""
+here from docs/method.md's formulas, not from the package's helpers."""
 
 import math
 
@@ -119,9 +119,9 @@ def test_action_term_is_the_weighted_sum_of_squared_commands():
 
 @pytest.mark.parametrize("heading", [0.0, 0.3, 2.5])
 def test_on_the_goal_the_heading_error_is_zero_whatever_the_heading(heading):
-    # The descent direction is undefined on the goal (METHOD.md gives only the limits); the
-    # package defines the heading error as 0 there, on a map too, where the grid's central
-    # differences around the goal need not vanish.
+    # The descent direction is undefined on the goal (the paper gives only the limits;
+    # docs/method.md section 4.1); the package defines the heading error as 0 there, on a map
+    # too, where the grid's central differences around the goal need not vanish.
     from dsmpepc_nlp.core.world import OccupancyGrid
 
     occupied = np.zeros((60, 60), bool)

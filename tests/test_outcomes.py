@@ -1,4 +1,4 @@
-"""The outcome rules of METHOD.md section 7, on numbers: no planner, no episode."""
+"""The outcome rules of docs/method.md section 7.3, on numbers: no planner, no episode."""
 
 import pytest
 

@@ -22,7 +22,8 @@ Episodes are CrowdNav's test cases: with ``--seed 0`` episode ``k`` draws the hu
 numpy's legacy generator seeded ``1000 + k`` in CrowdNav's order of draws, as CrowdNav's test
 phase does (:func:`case_rng`), so episodes 0-499 are the 500 test cases of the literature.
 
-Control period: CrowdNav's time step is 0.25 s; our planner's horizon step is 0.2 s (METHOD.md).
+Control period: CrowdNav's time step is 0.25 s; our planner's horizon step is 0.2 s
+(docs/method.md section 2).
 We keep the method as it is (0.2 s horizon, its acceleration limits per 0.2 s step) and run the
 loop at 0.25 s: every 0.25 s the robot plans once and holds the first control of its plan for the
 whole 0.25 s (a zero-order hold, as a 4 Hz controller would). The speed change between two

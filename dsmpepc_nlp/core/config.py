@@ -1,4 +1,4 @@
-"""Planner configuration: frozen, validated dataclasses whose defaults are METHOD.md's.
+"""Planner configuration: frozen, validated dataclasses whose defaults are docs/method.md's.
 
 Longer than the usual 400 lines: every tunable value of the method and of the solvers is a field
 here, with its unit, its source (paper, IROS 2012 or "our choice") and its validation, so that
@@ -42,7 +42,7 @@ def _validate_fields(instance, rules: dict) -> None:
 
 @dataclass(frozen=True)
 class RobotConfig:
-    """Differential-drive robot: limits and footprint (METHOD.md section 1)."""
+    """Differential-drive robot: limits and footprint (docs/method.md section 1.1)."""
 
     v_limit: float = 1.0
     """Largest forward speed, m/s, at most ``MAX_SPEED`` (our choice; MPEPC's wheelchair ran at
@@ -166,7 +166,7 @@ class BoundsConfig:
 
 
 TERM_NAMES = ("progress", "action", "collision", "heading", "terminal")
-"""The cost terms, in the order of METHOD.md section 5."""
+"""The cost terms, in the order of docs/method.md section 5.3."""
 TERM_WEIGHTS = {"progress": "w_progress", "action": "w_action", "collision": "c_collision",
                 "heading": "c_heading", "terminal": "w_terminal"}
 """Each term's weight field in :class:`CostConfig`."""
@@ -174,7 +174,7 @@ TERM_WEIGHTS = {"progress": "w_progress", "action": "w_action", "collision": "c_
 
 @dataclass(frozen=True)
 class CostConfig:
-    """Weights and widths of the MPEPC / DS-MPEPC cost (METHOD.md section 5)."""
+    """Weights and widths of the MPEPC / DS-MPEPC cost (docs/method.md sections 3-5)."""
 
     sigma_static: float = 0.1
     """Width of the collision-probability bell for the map, m (IROS 2012)."""
@@ -189,9 +189,10 @@ class CostConfig:
     c_collision: float = 0.1
     """Cost of a collision per step, weighted by 1 - survivability (IROS 2012)."""
     w_progress: float = 1.0
-    """Weight of the progress term (METHOD.md: 1)."""
+    """Weight of the progress term (the paper: 1; docs/method.md section 5.3)."""
     w_action: float = 1.0
-    """Weight of the action term on top of ``c_v`` and ``c_w`` (METHOD.md: 1)."""
+    """Weight of the action term on top of ``c_v`` and ``c_w`` (the paper: 1; docs/method.md
+    section 5.3)."""
     w_terminal: float = 1.0
     """Weight of the terminal term (the paper: 1); counted only with ``terminal_cost``."""
     disabled: tuple = ()
@@ -210,7 +211,7 @@ class CostConfig:
     direction at the horizon's end, instead of the straight line ``|g - p_N| / (v_N u . g^)``.
     Why: the straight line measures through walls. Behind a wall it calls a trajectory that
     drives along the only route 'not approaching the goal' (``C_TTG = 1``, the terminal reward a
-    stop facing free space also earns, METHOD.md section 5) and one facing the wall
+    stop facing free space also earns, docs/method.md section 5.4) and one facing the wall
     'approaching' it; the NF measures the route the robot will drive, as the progress term does
     (:func:`~dsmpepc_nlp.core.costs.inverse_ttg_along_nf`). Without a map both are the same."""
 
@@ -288,7 +289,7 @@ class SmoothingConfig:
 
 @dataclass(frozen=True)
 class DockingConfig:
-    """Docking near a fixed goal (IROS 2012, METHOD.md section 7)."""
+    """Docking near a fixed goal (IROS 2012, docs/method.md section 7.1)."""
 
     radius: float = 2.0
     """Within this distance of a fixed goal the target pose is the goal itself, m (IROS 2012)."""
@@ -319,7 +320,7 @@ class PlannerConfig:
     smoothing: SmoothingConfig = field(default_factory=SmoothingConfig)
     docking: DockingConfig = field(default_factory=DockingConfig)
     anticipatory_pc: bool = True
-    """DS-MPEPC's collision probability with the time-to-collision factor (paper eq. 4)."""
+    """DS-MPEPC's collision probability with the time-to-collision factor (paper eq. 5)."""
     terminal_cost: bool = True
     """DS-MPEPC's terminal cost on time to goal and time to collision (paper section IV-B)."""
 

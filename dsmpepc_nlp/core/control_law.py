@@ -30,7 +30,7 @@ def target_pose(z, pose, ops=NUMPY):
     """Target pose T of ``z = (r, theta, delta, v_max)`` seen from ``pose = (x, y, phi)``.
 
     ``los0 = phi - delta``, ``T = p + r (cos los0, sin los0)``, ``phi_T = los0 + theta``
-    (METHOD.md section 2). Each argument is a sequence of scalars or arrays of one shape.
+    (docs/method.md section 1.2). Each argument is a sequence of scalars or arrays of one shape.
     """
     r, theta, delta = z[0], z[1], z[2]
     los = pose[2] - delta

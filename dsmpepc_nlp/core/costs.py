@@ -1,4 +1,4 @@
-"""The MPEPC / DS-MPEPC cost terms (METHOD.md sections 4-5), exact and smooth forms side by side.
+"""The MPEPC / DS-MPEPC cost terms (docs/method.md sec. 3-5), exact and smooth forms side by side.
 
 Two layers. The *geometry* of a trajectory (distances, inverse times to collision and to goal,
 navigation-function values) is measured exactly here from the world (signed distance field,
@@ -71,7 +71,7 @@ Our definition; the paper gives only the limits."""
 
 
 def inverse_ttg(poses_terminal, v_terminal, goal, ops=NUMPY, smoothing=EXACT):
-    """Inverse expected time to goal at the horizon's end, 1/s (METHOD.md section 4).
+    """Inverse expected time to goal at the horizon's end, 1/s (docs/method.md section 4.1).
 
     Distance to the goal over the component of the terminal velocity along the goal
     direction: ``1/TTG = max(v u.(g - p), 0) / |g - p|^2``; 0 when that component is <= 0.
@@ -145,9 +145,10 @@ def collision_probability(distance, inv_ttc, sigma, config: PlannerConfig, smoot
     d = relu(distance, smoothing.distance, ops)
     pc = ops.exp(-(d * d) / (sigma * sigma))
     if config.anticipatory_pc:
-        # The paper (eq. 4) prints exp(+(1/TTC)^2 / s^2). With a = 0.7 and s = 0.5 that factor
+        # The paper (eq. 5) prints exp(+(1/TTC)^2 / s^2). With a = 0.7 and s = 0.5 that factor
         # is negative for every TTC below 3.35 s, so it cannot be meant: Lemmas 1 and 2 need a
-        # factor that is 1 at TTC = 0 and 1 - a at TTC = inf, which is this form (METHOD.md 5).
+        # factor that is 1 at TTC = 0 and 1 - a at TTC = inf, which is this form
+        # (docs/method.md section 3.4).
         s = config.cost.s_ttc
         pc = pc * (1.0 - config.cost.a * ops.exp(-(inv_ttc * inv_ttc) / (s * s)))
     return pc
@@ -176,9 +177,9 @@ def assemble(distance, inv_ttc, sigma, nf, v, omega, heading_err, inv_ttg, inv_t
         "progress": ops.sum_steps(after_start * (ops.steps(nf, 1, None) - ops.steps(nf, None, -1))),
         "action": ops.sum_steps((c.c_v * v * v + c.c_w * omega * omega) * config.horizon.dt),
         "collision": ops.sum_steps(1.0 - after_start),
-        # Deviation from METHOD.md: the heading heuristic is weighted by the horizon
-        # survivability like progress is; unweighted, a robot in collision could gain by
-        # turning, breaking Lemma 3.
+        # Deviation from IROS 2012 (docs/method.md section 8): the heading heuristic is
+        # weighted by the horizon survivability like progress is; unweighted, a robot in
+        # collision could gain by turning, breaking Lemma 3.
         "heading": heading_err * final,
         "terminal": -final * ops.exp(-(inv_ttg * inv_ttg) / (c.s_ttg * c.s_ttg))
         * ops.exp(-(inv_ttc_terminal * inv_ttc_terminal) / (c.s_ttc * c.s_ttc)),

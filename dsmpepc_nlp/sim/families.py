@@ -23,7 +23,7 @@ Families (geometry ours, from the paper's descriptions; all lengths m):
     A round robot crosses a wall through a door of width ``door``; its start is shifted
     ``offset`` sideways from the door, so the straight line to its goal (on the door's axis
     behind the wall) runs into the wall: the situation of the terminal cost's hazard
-    (METHOD.md section 5).
+    (docs/method.md section 5.4).
 """
 
 from __future__ import annotations

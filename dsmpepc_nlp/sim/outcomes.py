@@ -1,4 +1,4 @@
-"""Per-robot outcomes of the closed loop (METHOD.md section 7) as pure functions.
+"""Per-robot outcomes of the closed loop (docs/method.md section 7.3) as pure functions.
 
 The loop measures (overlaps, distance to the goal, progress) and these functions decide; so the
 rules can be tested on numbers, without running an episode.
@@ -25,12 +25,12 @@ import math
 import numpy as np
 
 OUTCOMES = ("success", "collision", "deadlock", "timeout")
-"""Per-robot outcomes (METHOD.md section 7)."""
+"""Per-robot outcomes (docs/method.md section 7.3)."""
 
 DEADLOCK_WINDOW = 10.0
-"""Seconds over which progress is measured for ``deadlock`` (METHOD.md section 7)."""
+"""Seconds over which progress is measured for ``deadlock`` (docs/method.md section 7.3)."""
 DEADLOCK_PROGRESS = 0.1
-"""Less progress than this (m) over the window is a deadlock (METHOD.md section 7)."""
+"""Less progress than this (m) over the window is a deadlock (docs/method.md section 7.3)."""
 
 
 def window_progress(history, window: int, kind: str) -> float | None:

@@ -1,4 +1,4 @@
-"""The closed loop (METHOD.md section 7): a scenario's robots plan and move together, logged.
+"""The closed loop (docs/method.md section 7): a scenario's robots plan and move together, logged.
 
 Every ``dt`` each robot that has no outcome yet plans once, from what it sees now, and then all
 of them execute the first step of their plans at once (exact arc integration). Robots plan
@@ -268,8 +268,9 @@ def simulate(scenario: Scenario, config: PlannerConfig, solver: SolverConfig, rn
         ``planner_factory(config, solver)`` builds each robot's planner (default
         :class:`~dsmpepc_nlp.solve.planner.Planner`; the ORCA baseline passes its own).
     deadlock : bool
-        Apply the deadlock rule (METHOD.md section 7); False: a stalled robot runs on until the
-        duration ends (a protocol without that rule, such as CrowdNav's, calls it a timeout).
+        Apply the deadlock rule (docs/method.md section 7.3); False: a stalled robot runs on
+        until the duration ends (a protocol without that rule, such as CrowdNav's, calls it a
+        timeout).
 
     Returns
     -------

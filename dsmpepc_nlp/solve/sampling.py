@@ -24,7 +24,7 @@ def clip_to_bounds(z, config: PlannerConfig) -> np.ndarray:
 
 def structured_starts(state: RobotState, goal, config: PlannerConfig,
                       previous_target=None, solver: SolverConfig | None = None) -> dict:
-    """The named starts of METHOD.md section 6, each a z of shape (4,) inside the box.
+    """The named starts of docs/method.md section 6.3, each a z of shape (4,) inside the box.
 
     ``warm`` (last plan's target re-expressed in the robot's new frame, when given), ``stop``,
     ``goal`` (target on the goal, facing along the line of sight), soft and hard turns both ways
