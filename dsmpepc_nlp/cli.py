@@ -254,7 +254,8 @@ def cmd_build(args) -> int:
 
 
 def main(argv=None) -> int:
-    """Entry point of ``dsmpepc``; returns the exit status (0, 2 for bad input, 130 on Ctrl-C)."""
+    """Entry point of ``dsmpepc``; returns the exit status (0, 2 for bad input, 130 on Ctrl-C,
+    141 when the reader of stdout went away, as a shell reports SIGPIPE)."""
     try:
         args = build_parser().parse_args(argv)
         return args.func(args)
@@ -264,6 +265,13 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("dsmpepc: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # The reader left (``dsmpepc list | head -1``): say nothing, as cat does. Python would
+        # report the pipe again when it flushes stdout at exit, so stdout goes to devnull.
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
 
 
 if __name__ == "__main__":
