@@ -233,7 +233,27 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_build)
 
     commands.register(sub, _scenario_options)
+    for name, epilog in (("run", METRICS_EPILOG), ("compare", METRICS_EPILOG),
+                         ("bench", BENCH_EPILOG)):
+        sub.choices[name].epilog = epilog
+        sub.choices[name].formatter_class = argparse.RawDescriptionHelpFormatter
     return parser
+
+
+METRICS_EPILOG = """table columns (docs/glossary.md has every metric):
+  outcome   success, collision (at-fault or struck), deadlock or timeout
+  time      s, when the outcome was decided     path      m, length driven
+  static    m, least clearance to the map        dynamic   m, least clearance to others
+  discomf   share of states with a pedestrian closer than DISCOMFORT_GAP
+  follow    m, mean centre distance to the followed pedestrian
+  plan med  s, median planning-cycle time        plan p95  s, its 95th percentile"""
+
+BENCH_EPILOG = """table columns (docs/glossary.md):
+  median ms, p95 ms  one plan's wall time over the demo cycles; first ms: a fresh planner's
+  first plan; build s: building or loading the NLP's compiled graph.
+  The sampling row runs "at equal cost": per cycle the smallest sample count (64 ... 16,384)
+  whose best exact cost is within --tol of the default NLP's, not SolverConfig.sampling()'s
+  4,096 samples."""
 
 
 def cmd_build(args) -> int:
