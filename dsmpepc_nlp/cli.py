@@ -239,7 +239,27 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_cache)
 
     commands.register(sub, _scenario_options)
+    for name, epilog in (("run", METRICS_EPILOG), ("compare", METRICS_EPILOG),
+                         ("bench", BENCH_EPILOG)):
+        sub.choices[name].epilog = epilog
+        sub.choices[name].formatter_class = argparse.RawDescriptionHelpFormatter
     return parser
+
+
+METRICS_EPILOG = """table columns (docs/glossary.md has every metric):
+  outcome   success, collision (at-fault or struck), deadlock or timeout
+  time      s, when the outcome was decided     path      m, length driven
+  static    m, least clearance to the map        dynamic   m, least clearance to others
+  discomf   share of states with a pedestrian closer than DISCOMFORT_GAP
+  follow    m, mean centre distance to the followed pedestrian
+  plan med  s, median planning-cycle time        plan p95  s, its 95th percentile"""
+
+BENCH_EPILOG = """table columns (docs/glossary.md):
+  median ms, p95 ms  one plan's wall time over the demo cycles; first ms: a fresh planner's
+  first plan; build s: building or loading the NLP's compiled graph.
+  The sampling row runs "at equal cost": per cycle the smallest sample count (64 ... 16,384)
+  whose best exact cost is within --tol of the default NLP's, not SolverConfig.sampling()'s
+  4,096 samples."""
 
 
 def cmd_cache(args) -> int:
@@ -297,7 +317,8 @@ def cmd_build(args) -> int:
 
 
 def main(argv=None) -> int:
-    """Entry point of ``dsmpepc``; returns the exit status (0, 2 for bad input, 130 on Ctrl-C)."""
+    """Entry point of ``dsmpepc``; returns the exit status (0, 2 for bad input, 130 on Ctrl-C,
+    141 when the reader of stdout went away, as a shell reports SIGPIPE)."""
     try:
         args = build_parser().parse_args(argv)
         return args.func(args)
@@ -307,6 +328,13 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("dsmpepc: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # The reader left (``dsmpepc list | head -1``): say nothing, as cat does. Python would
+        # report the pipe again when it flushes stdout at exit, so stdout goes to devnull.
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
 
 
 if __name__ == "__main__":

@@ -2,7 +2,8 @@
 
 The embedded cost reads the cycle's distance and navigation tables directly, so it is the
 same cost wherever your optimiser goes: the script ends by comparing it with the exact cost
-at the solution.
+at the solution. The inputs' meanings, units and layouts: ``dsmpepc_nlp.embed``
+(``PARAMETER_DOCS``).
 """
 
 import casadi as ca
@@ -12,8 +13,7 @@ from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.control_law import rollout
 from dsmpepc_nlp.core.costs import evaluate
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
-from dsmpepc_nlp.solve.cycle import Cycle
-from dsmpepc_nlp.solve.nlp_global import GraphSizes, cost_function, pack_parameters
+from dsmpepc_nlp.embed import Cycle, GraphSizes, cost_function, pack_parameters
 
 config = PlannerConfig()
 sizes = GraphSizes(max_objects=4, table_cells=64)   # the 6 m room fits in 64 x 64 cells

@@ -34,7 +34,12 @@ def test_episode_figure_draws_map_pedestrians_path_and_samples(episode, tmp_path
     # 2 recorded cycles x 20 samples in grey, plus the robot path
     grey = [ln for ln in ax.lines if ln.get_color() == "0.7"]
     assert len(grey) == 40
-    assert "a: timeout" in ax.get_xlabel()
+    assert ax.get_xlabel() == "x [m]" and ax.get_ylabel() == "y [m]"
+    assert any("a: timeout" in t.get_text() for t in fig.texts)    # the outcome caption
+    labels = ax.get_legend().get_texts()
+    names = {t.get_text() for t in labels}
+    assert {"robot a (path)", "pedestrian (path)", "pedestrian", "goal (x, robot's colour)",
+            "sampled trajectories (recorded cycles)", "each cycle's plan (thin)"} <= names
     path = plots.episode_figure(episode, path=tmp_path / "f" / "ep.png")
     assert path.is_file() and path.stat().st_size > 1000
     assert plt.get_fignums() == [fig.number]                    # the saved one was closed
@@ -78,3 +83,13 @@ def test_draw_map_without_grid_draws_nothing():
     fig, ax = plt.subplots()
     plots.draw_map(ax, World().grid)
     assert len(ax.images) == 0
+
+
+def test_the_caption_tells_at_fault_from_struck(monkeypatch):
+    from types import SimpleNamespace
+
+    monkeypatch.setattr(plots, "collision_kind", lambda episode, robot: "struck")
+    episode = SimpleNamespace(meta={"robots": ["a", "b"]}, outcomes=["collision", "success"],
+                              outcome_times=[2.5, 9.0])
+    assert plots.outcome_caption(episode) == ("outcome: a: collision (struck) at t = 2.5 s; "
+                                              "b: success at t = 9.0 s")

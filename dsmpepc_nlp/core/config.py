@@ -11,11 +11,11 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 
-from .errors import MAX_SIZE, MAX_SPEED, InputError
+from .errors import MAX_SIZE, MAX_SPEED, InputError, shown
 
 
 def _fail(owner: str, name: str, value, allowed: str) -> None:
-    raise InputError(f"{owner}.{name} = {value!r}: must be {allowed}")
+    raise InputError(f"{owner}.{name} = {shown(value)}: must be {allowed}")
 
 
 def _finite(owner, name, value, *, low=-math.inf, high=math.inf, low_open=False, allow_inf=False):

@@ -31,17 +31,31 @@ RESOLUTION_RANGE = (1.0e-4, 100.0)
 """Map cell side (m), inclusive."""
 
 
+def shown(value, limit: int = 120) -> str:
+    """``repr(value)`` for a message, without numpy's spelling: numpy scalars as Python numbers
+    (``0.0``, not ``np.float64(0.0)``), arrays as lists, anything long cut at ``limit``."""
+    if isinstance(value, np.generic):
+        value = value.item()
+    elif isinstance(value, np.ndarray):
+        value = value.tolist() if value.size <= 16 else f"<array of shape {value.shape}>"
+    elif isinstance(value, (list, tuple)) and any(isinstance(v, np.generic) for v in value):
+        value = type(value)(v.item() if isinstance(v, np.generic) else v for v in value)
+    text = value if isinstance(value, str) and value.startswith("<array") else repr(value)
+    return text if len(text) <= limit else text[:limit] + "..."
+
+
 def finite_vector(name, value, size, bound=math.inf):
     """``value`` as a float array of shape ``(size,)``; InputError unless finite and
     ``|value| <= bound`` elementwise."""
     try:
         arr = np.array(value, dtype=float)
     except (TypeError, ValueError):
-        raise InputError(f"{name}={value!r}: expected {size} finite numbers") from None
+        raise InputError(f"{name}={shown(value)}: expected {size} finite numbers") from None
     if arr.shape != (size,) or not np.all(np.isfinite(arr)):
-        raise InputError(f"{name}={value!r}: expected {size} finite numbers")
+        raise InputError(f"{name}={shown(value)}: expected {size} finite numbers")
     if np.any(np.abs(arr) > bound):
-        raise InputError(f"{name}={value!r}: expected {size} numbers in [-{bound:g}, {bound:g}]")
+        raise InputError(f"{name}={shown(value)}: expected {size} numbers in "
+                         f"[-{bound:g}, {bound:g}]")
     return arr
 
 
@@ -52,7 +66,7 @@ def number_in(name, value, low, high):
     except (TypeError, ValueError):
         x = math.nan
     if isinstance(value, bool) or not low <= x <= high:
-        raise InputError(f"{name}={value!r}: expected a number in [{low:g}, {high:g}]")
+        raise InputError(f"{name}={shown(value)}: expected a number in [{low:g}, {high:g}]")
     return x
 
 
@@ -61,11 +75,11 @@ def positive_number(name, value, allow_zero=False):
     try:
         x = float(value)
     except (TypeError, ValueError):
-        raise InputError(f"{name}={value!r}: expected a finite number") from None
+        raise InputError(f"{name}={shown(value)}: expected a finite number") from None
     ok = math.isfinite(x) and (x >= 0.0 if allow_zero else x > 0.0)
     if not ok or isinstance(value, bool):
         allowed = "finite and >= 0" if allow_zero else "finite and > 0"
-        raise InputError(f"{name}={value!r}: expected a number {allowed}")
+        raise InputError(f"{name}={shown(value)}: expected a number {allowed}")
     return x
 
 

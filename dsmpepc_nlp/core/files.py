@@ -1,11 +1,15 @@
-"""Atomic file writes: a temporary file in the same folder, then ``os.replace``."""
+"""Atomic file writes (a temporary file in the same folder, then ``os.replace``), and the YAML
+reader of scenario and map files."""
 
 from __future__ import annotations
 
 import io
 import os
+import re
 import tempfile
 from pathlib import Path
+
+import yaml
 
 
 def atomic_write_bytes(path, payload: bytes) -> Path:
@@ -49,3 +53,20 @@ def atomic_savefig(fig, path, **kwargs) -> Path:
     buffer = io.BytesIO()
     fig.savefig(buffer, format=path.suffix.lstrip(".") or "png", **kwargs)
     return atomic_write_bytes(path, buffer.getvalue())
+
+
+class _NumberLoader(yaml.SafeLoader):
+    """PyYAML's safe loader (YAML 1.1) that also reads ``1e9``, ``2E-3`` and ``.5e1`` as
+    numbers, as YAML 1.2 does: YAML 1.1 wants a dot and a signed exponent (``1.0e+9``), and
+    reads ``1e9`` as the string "1e9"."""
+
+
+_NumberLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
+    list("-+0123456789."))
+
+
+def load_yaml(text: str):
+    """YAML text as Python objects: :func:`yaml.safe_load`, with ``1e9`` read as a number."""
+    return yaml.load(text, Loader=_NumberLoader)  # noqa: S506 - a SafeLoader subclass

@@ -1,4 +1,5 @@
-"""ROS ``map_server`` map files: YAML metadata and a PGM image, read and written."""
+"""ROS ``map_server`` map files: YAML metadata and a PGM image, read and written; PNG (and the
+other images Pillow reads) read as ``map_server`` reads them."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import numpy as np
 import yaml
 
 from .errors import MAX_COORDINATE, RESOLUTION_RANGE, InputError, finite_vector, number_in
-from .files import atomic_write_bytes
+from .files import atomic_write_bytes, load_yaml
 
 
 def _read_pgm(path):
@@ -74,10 +75,39 @@ def _read_pgm(path):
     return pixels.reshape(height, width), maxval
 
 
+def _read_image(path):
+    """Pixels (h, w) and their maximum value, as ``map_server`` sees an image: PGM read here;
+    PNG, BMP, JPEG... through Pillow (matplotlib's dependency), colour channels averaged and
+    an alpha channel left out of the average (``map_server``'s trinary and scale modes)."""
+    if Path(path).read_bytes()[:2] in (b"P5", b"P2"):
+        return _read_pgm(path)
+    try:
+        from PIL import Image, UnidentifiedImageError
+    except ImportError:  # pragma: no cover - Pillow comes with matplotlib
+        raise InputError(f"image {str(path)!r}: not a PGM, and Pillow (for PNG and other "
+                         "images) is not installed: pip install pillow") from None
+    try:
+        with Image.open(path) as image:
+            if image.mode in ("1", "P", "CMYK", "YCbCr", "LAB", "HSV"):
+                alpha = image.mode == "P" and "transparency" in image.info
+                image = image.convert("RGBA" if alpha else "RGB")
+            pixels = np.asarray(image)
+    except (UnidentifiedImageError, OSError) as exc:
+        raise InputError(f"image {str(path)!r}: not a PGM, and not an image Pillow reads "
+                         f"(PNG, BMP, JPEG...): {exc}") from None
+    maxval = 65535 if pixels.dtype.itemsize > 1 else 255
+    if pixels.ndim == 3:
+        channels = pixels.shape[2]
+        colour = pixels[:, :, :channels - 1] if channels in (2, 4) else pixels
+        pixels = colour.astype(float).mean(axis=2)
+    return pixels.astype(float), maxval
+
+
 def read_map(path):
     """Read a ROS ``map_server`` map: ``(occupied[iy, ix], resolution, origin (x, y))``.
 
-    From the YAML file and the PGM image it names.
+    From the YAML file and the image it names: a PGM, or a PNG (or any image Pillow reads) as
+    ``map_server`` reads it (colour channels averaged, alpha left out of the average).
 
     Honoured fields: ``image`` (relative to the YAML's folder), ``resolution`` (m/cell, in
     ``RESOLUTION_RANGE``), ``origin`` [x, y, yaw] (``|x|, |y| <= MAX_COORDINATE``; yaw must
@@ -98,7 +128,7 @@ def read_map(path):
     path = Path(path)
     where = f"map file {str(path)!r}"
     try:
-        meta = yaml.safe_load(path.read_text())
+        meta = load_yaml(path.read_text())
     except OSError as exc:
         raise InputError(f"{where}: cannot read ({exc.strerror})") from None
     except yaml.YAMLError as exc:
@@ -123,7 +153,7 @@ def read_map(path):
         raise InputError(f"{where}: origin={origin!r}: expected [x, y, yaw]")
     origin = field(finite_vector, "origin", 3, MAX_COORDINATE)
     if origin[2] != 0.0:
-        raise InputError(f"{where}: origin yaw={origin[2]!r}: only 0 is supported")
+        raise InputError(f"{where}: origin yaw={float(origin[2])!r}: only 0 is supported")
     negate = meta.get("negate", 0)
     if negate not in (0, 1):
         raise InputError(f"{where}: negate={negate!r}: expected 0 or 1")
@@ -149,7 +179,7 @@ def read_map(path):
     if not image_path.is_file():
         raise InputError(f"{where}: image file {str(image_path)!r} (field 'image') not found")
 
-    pixels, maxval = _read_pgm(image_path)
+    pixels, maxval = _read_image(image_path)
     lightness = pixels / maxval
     occupancy = lightness if negate else 1.0 - lightness
     occupied = occupancy > thresholds["occupied_thresh"]

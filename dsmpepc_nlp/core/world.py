@@ -105,6 +105,11 @@ class DynamicObstacle:
 # world
 
 
+def _short(value, limit: int = 80) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:limit]}... ({type(value).__name__})"
+
+
 class World:
     """What a plan sees: an optional static grid and dynamic obstacles at the current time.
 
@@ -116,11 +121,16 @@ class World:
 
     def __init__(self, grid=None, obstacles=()):
         if grid is not None and not isinstance(grid, OccupancyGrid):
-            raise TypeError(f"grid={grid!r}: expected an OccupancyGrid or None")
+            shown = (f"a {type(grid).__name__} of shape {np.shape(grid)}"
+                     if isinstance(grid, np.ndarray) else _short(grid))
+            raise InputError(f"World(grid=...): got {shown}; expected an OccupancyGrid or "
+                             "None (OccupancyGrid.from_array(occupied, resolution) makes one "
+                             "from an array)")
         obstacles = tuple(obstacles)
         for i, obstacle in enumerate(obstacles):
             if not isinstance(obstacle, DynamicObstacle):
-                raise TypeError(f"obstacles[{i}]={obstacle!r}: expected a DynamicObstacle")
+                raise InputError(f"World(obstacles=...)[{i}] = {_short(obstacle)}: expected a "
+                                 "DynamicObstacle")
         self.grid = grid
         self.obstacles = obstacles
         self._navigation_cache = OrderedDict()

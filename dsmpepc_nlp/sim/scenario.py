@@ -41,6 +41,7 @@ overlaps the map, another robot, a parked robot or a pedestrian at t = 0 is an e
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
 from pathlib import Path
 
@@ -48,9 +49,10 @@ import numpy as np
 import yaml
 
 from ..core.config import RobotConfig, RobotState
-from ..core.errors import MAX_COORDINATE, MAX_DURATION, MAX_SIZE, MAX_SPEED, InputError
-from ..core.geometry import footprint_points
+from ..core.errors import MAX_COORDINATE, MAX_DURATION, MAX_SIZE, MAX_SPEED, InputError, shown
+from ..core.files import load_yaml
 from ..core.world import OccupancyGrid
+from .checks import START_DRAWS, check_against_map, start_conflict, start_states  # noqa: F401
 from .types import Agent, FixedGoal, FollowGoal, ParkedRobot, Pedestrian, Scenario
 
 SCENARIO_DIR = Path(__file__).resolve().parent.parent / "scenarios"
@@ -91,8 +93,10 @@ class _Reader:
         allowed = (*required, *optional)
         for key in value:
             if key not in allowed:
+                close = difflib.get_close_matches(str(key), allowed, n=1, cutoff=0.6)
+                hint = f"did you mean {close[0]!r}? " if close else ""
                 self.fail(f"{path}.{key}" if path else str(key),
-                          f"unknown key; allowed keys: {', '.join(allowed)}")
+                          f"unknown key; {hint}allowed keys: {', '.join(allowed)}")
         for key in required:
             if key not in value:
                 self.fail(f"{path}.{key}" if path else key, "missing required field")
@@ -100,19 +104,23 @@ class _Reader:
 
     def number(self, value, path, *, low=None, low_open=False, high=None):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            self.fail(path, f"{value!r} is not a number")
+            hint = ""
+            if isinstance(value, str) and _looks_numeric(value):
+                hint = f" (write it as a YAML number such as {float(value):.1e})"
+            self.fail(path, f"{shown(value)} is not a number{hint}")
         value = float(value)
         if not math.isfinite(value):
-            self.fail(path, f"{value!r}: must be a finite number")
+            self.fail(path, f"{shown(value)}: must be a finite number")
         if low is not None and (value <= low if low_open else value < low):
-            self.fail(path, f"{value!r}: must be {'>' if low_open else '>='} {low}")
+            self.fail(path, f"{shown(value)}: must be {'>' if low_open else '>='} {low}")
         if high is not None and value > high:
-            self.fail(path, f"{value!r}: must be <= {high:g}")
+            self.fail(path, f"{shown(value)}: must be <= {high:g}")
         return value
 
     def vector(self, value, path, size, names, bound=MAX_COORDINATE):
         if not isinstance(value, (list, tuple)) or len(value) != size:
-            self.fail(path, f"{value!r}: must be a list of {size} numbers [{', '.join(names)}]")
+            self.fail(path, f"{shown(value)}: must be a list of {size} numbers "
+                      f"[{', '.join(names)}]")
         numbers = tuple(self.number(v, f"{path}[{i}]") for i, v in enumerate(value))
         for i, v in enumerate(numbers):
             if abs(v) > bound:
@@ -121,12 +129,12 @@ class _Reader:
 
     def string(self, value, path):
         if not isinstance(value, str) or not value:
-            self.fail(path, f"{value!r}: must be a non-empty string")
+            self.fail(path, f"{shown(value)}: must be a non-empty string")
         return value
 
     def integer(self, value, path, low=0):
         if isinstance(value, bool) or not isinstance(value, int) or value < low:
-            self.fail(path, f"{value!r}: must be an integer >= {low}")
+            self.fail(path, f"{shown(value)}: must be an integer >= {low}")
         return value
 
     def items(self, value, path, *, min_items=0):
@@ -145,6 +153,14 @@ class _Reader:
                 self.fail(f"{path}[{i}][2]", f"radius {r!r}: must be > 0")
             out.append((cx, cy, r))
         return tuple(out)
+
+
+def _looks_numeric(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 # ---------------------------------------------------------------------------------------------
@@ -191,7 +207,7 @@ def load_scenario(name_or_path) -> Scenario:
     """
     path = resolve(name_or_path)
     try:
-        data = yaml.safe_load(path.read_text())
+        data = load_yaml(path.read_text())
     except OSError as exc:
         raise ScenarioError(f"scenario {str(path)!r}: cannot read ({exc.strerror})") from None
     except yaml.YAMLError as exc:
@@ -243,94 +259,10 @@ def parse_scenario(data, source: str = "<mapping>", folder=None) -> Scenario:
             r.fail(f"robots[{i}].start", f"[{s.x}, {s.y}, {s.phi}]: {problem}; a start must be "
                    "in free space")
     if grid is not None:
-        _check_goals_against_map(r, grid, agents)
+        check_against_map(r, grid, agents, pedestrians, duration)
     return Scenario(name=name, agents=agents, grid=grid, pedestrians=pedestrians,
                     parked=parked, duration=duration, start_noise=start_noise,
                     map_path=map_path, description=description)
-
-
-def _body(agent, pose):
-    """World centres (C, 2) and radii (C,) of an agent's footprint at ``pose``."""
-    circles = np.asarray((agent.robot or RobotConfig()).footprint, dtype=float)
-    return footprint_points(np.asarray(pose, dtype=float), circles[:, :2]), circles[:, 2]
-
-
-def _overlap(centres, radii, other_centres, other_radii) -> float:
-    """How deep (m) two sets of circles overlap; <= 0 when they are apart."""
-    gaps = np.linalg.norm(centres[:, None, :] - other_centres[None, :, :], axis=-1)
-    return float(np.max(radii[:, None] + other_radii[None, :] - gaps))
-
-
-def start_conflict(i, starts, agents, grid, parked, pedestrians) -> str:
-    """What robot ``i``'s footprint at ``starts[i]`` (x, y, phi) overlaps at t = 0, or "".
-
-    Checked against the map (the signed distance that decides a collision), robots ``0..i-1``
-    at ``starts``, the parked robots and the pedestrians at t = 0: a start that is already a
-    collision is an error, not an episode.
-    """
-    centres, radii = _body(agents[i], starts[i])
-    if grid is not None:
-        depth = float(np.max(radii - grid.distance(centres)))
-        if depth > 0:
-            return f"the footprint overlaps the map by {depth:.3f} m"
-    for j in range(i):
-        depth = _overlap(centres, radii, *_body(agents[j], starts[j]))
-        if depth > 0:
-            return f"overlaps robots[{j}] ({agents[j].name!r}) at t = 0 by {depth:.3f} m"
-    for k, robot in enumerate(parked):
-        circles = np.asarray(robot.footprint, dtype=float)
-        other = footprint_points(np.asarray(robot.pose, dtype=float), circles[:, :2])
-        depth = _overlap(centres, radii, other, circles[:, 2])
-        if depth > 0:
-            return f"overlaps parked_robots[{k}] by {depth:.3f} m"
-    for k, person in enumerate(pedestrians):
-        depth = _overlap(centres, radii, person.position(0.0)[None], np.array([person.radius]))
-        if depth > 0:
-            return f"overlaps pedestrians[{k}] at t = 0 by {depth:.3f} m"
-    return ""
-
-
-START_DRAWS = 100
-"""Draws of one robot's start perturbation before a scenario's ``start_noise`` is rejected."""
-
-
-def start_states(scenario, rng) -> list:
-    """Start states ``[x, y, phi, v, omega]`` with ``scenario.start_noise`` applied.
-
-    The noise (a Gaussian of standard deviation ``start_noise`` m on x and y, robot by robot)
-    is applied BEFORE the free-space checks of :func:`start_conflict`: a draw that puts a
-    robot's footprint into the map, an earlier robot, a parked robot or a pedestrian is drawn
-    again, up to :data:`START_DRAWS` times, after which an InputError names the scenario, the
-    robot and the noise. Without noise the starts are as written (the loader checked them).
-    """
-    noise = scenario.start_noise
-    agents = scenario.agents
-    starts = [a.start.pose for a in agents]
-    for i, agent in enumerate(agents):
-        if noise <= 0:
-            continue
-        for _ in range(START_DRAWS):
-            dx, dy = rng.normal(0.0, noise, 2)
-            starts[i] = (agent.start.x + dx, agent.start.y + dy, agent.start.phi)
-            if not start_conflict(i, starts, agents, scenario.grid, scenario.parked,
-                                  scenario.pedestrians):
-                break
-        else:
-            raise InputError(f"scenario {scenario.name!r}: robots[{i}] ({agent.name!r}): no "
-                             f"start in free space in {START_DRAWS} draws with start_noise = "
-                             f"{noise} m")
-    return [np.array([x, y, phi, a.start.v, a.start.omega], dtype=float)
-            for (x, y, phi), a in zip(starts, agents)]
-
-
-def _check_goals_against_map(r, grid, agents) -> None:
-    """A fixed goal inside the map is an error (the map's signed distance decides)."""
-    for i, agent in enumerate(agents):
-        if isinstance(agent.goal, FixedGoal):
-            inside = float(grid.distance(np.asarray(agent.goal.position, dtype=float)))
-            if inside < 0:
-                r.fail(f"robots[{i}].goal.position", f"{list(agent.goal.position)}: inside an "
-                       f"obstacle of the map ({-inside:.3f} m deep); a goal must be in free space")
 
 
 def _agent(r, a, where, index, n_pedestrians) -> Agent:
@@ -386,12 +318,13 @@ def _pedestrian(r, p, where) -> Pedestrian:
                           for i, w in enumerate(rows)])
         late = np.flatnonzero(np.abs(table[:, 0]) > MAX_DURATION)
         if late.size:
-            r.fail(f"{where}.waypoints[{late[0]}][0]", f"time {table[late[0], 0]!r}: must be "
-                   f"within [-{MAX_DURATION:g}, {MAX_DURATION:g}] s")
+            r.fail(f"{where}.waypoints[{late[0]}][0]",
+                   f"time {float(table[late[0], 0])!r}: must be within "
+                   f"[-{MAX_DURATION:g}, {MAX_DURATION:g}] s")
         bad = np.flatnonzero(np.diff(table[:, 0]) <= 0)
         if bad.size:
             r.fail(f"{where}.waypoints[{bad[0] + 1}][0]",
-                   f"time {table[bad[0] + 1, 0]!r}: times must be strictly increasing")
+                   f"time {float(table[bad[0] + 1, 0])!r}: times must be strictly increasing")
         return Pedestrian(table[:, 0], table[:, 1:], radius=radius)
     if "start" not in p or "velocity" not in p:
         r.fail(where, "needs 'waypoints', or both 'start' and 'velocity'")

@@ -27,6 +27,7 @@ from ..core.errors import InputError
 from ..core.geometry import footprint_points
 from ..core.world import DynamicObstacle, World
 from ..solve.planner import STATUSES, Planner
+from .checks import start_states
 from .episode import Episode, config_to_dict, robot_obstacle
 from .outcomes import (  # noqa: F401 (re-exported)
     DEADLOCK_PROGRESS,
@@ -36,7 +37,6 @@ from .outcomes import (  # noqa: F401 (re-exported)
     outcome,
     window_progress,
 )
-from .scenario import start_states
 from .types import FixedGoal, Scenario
 
 _footprint_gap = footprint_gap  # the old private name

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.config import RobotConfig, RobotState
-from ..core.errors import InputError
+from ..core.errors import InputError, shown
 from ..core.world import OccupancyGrid
 
 
@@ -54,7 +54,7 @@ class Pedestrian:
         if np.any(np.diff(times) <= 0):
             raise InputError(f"Pedestrian.times = {times.tolist()}: must be strictly increasing")
         if not (math.isfinite(self.radius) and self.radius > 0):
-            raise InputError(f"Pedestrian.radius = {self.radius!r}: must be finite and > 0")
+            raise InputError(f"Pedestrian.radius = {shown(self.radius)}: must be finite and > 0")
         object.__setattr__(self, "times", times)
         object.__setattr__(self, "positions", positions)
         object.__setattr__(self, "velocity", velocity)

@@ -5,8 +5,13 @@ parallel threads (each thread its own ``nlpsol``).
 
 from __future__ import annotations
 
+import difflib
 import math
+import re
+import subprocess
+import sys
 import time
+from functools import lru_cache
 
 import casadi as ca
 import numpy as np
@@ -66,6 +71,7 @@ class IpoptSolver:
     problem (cold and warm variants)."""
 
     def __init__(self, solver: SolverConfig):
+        check_options(solver)
         self.solver = solver
         self._built = {}
 
@@ -171,4 +177,78 @@ def _build_ipopt(problem: Problem, solver: SolverConfig, warm: bool):
                          f"IPOPT ({str(error).splitlines()[-1]})") from None
 
 
-__all__ = ["IpoptSolver", "USABLE_STATUSES", "ipopt_options"]
+def check_options(solver: SolverConfig) -> None:
+    """Raise :class:`InputError` when ``solver.options`` would not build IPOPT.
+
+    Each user option is tried alone on a one-variable ``nlpsol`` (about a millisecond each;
+    nothing is tried without options), so the message names the option at fault, with the
+    names it was probably meant to be: an IPOPT option written without its ``ipopt.`` prefix,
+    an unknown name, or a value IPOPT refuses.
+    """
+    for key, value in solver.options:
+        error = _trial_error({key: value})
+        if error is not None:
+            raise InputError(f"SolverConfig.options[{key!r}] = {value!r}: {_explain(key, error)}")
+
+
+def _trial_error(options: dict) -> str | None:
+    x = ca.MX.sym("x")
+    trial = dict(_QUIET_IPOPT)
+    trial.update(options)
+    try:
+        ca.nlpsol("dsmpepc_option_check", "ipopt", {"x": x, "f": x * x}, trial)
+    except RuntimeError as error:
+        return str(error)
+    return None
+
+
+def _explain(key: str, error: str) -> str:
+    if "Unknown option" in error:       # CasADi's own level: no such nlpsol option
+        names = re.findall(r'^> "([^"]+)"', error, flags=re.M)
+        if key in ipopt_option_names():
+            return (f"{key!r} is an IPOPT option: write it with the prefix, 'ipopt.{key}' "
+                    "(options without a prefix are CasADi's nlpsol options)")
+        return f"not a CasADi nlpsol option{_did_you_mean(key, names)}"
+    unknown = re.search(r"No such IPOPT option: (\S+)", error)
+    if unknown:
+        name = unknown.group(1)
+        suggestions = ["ipopt." + n for n in difflib.get_close_matches(
+            name, ipopt_option_names(), n=3, cutoff=0.6)]
+        hint = f"; did you mean {' or '.join(map(repr, suggestions))}?" if suggestions else \
+            " (IPOPT's options are listed by its print_options_documentation)"
+        return f"IPOPT has no option {name!r}{hint}"
+    last = error.strip().splitlines()[-1] if error.strip() else "error"
+    if "Invalid options were detected by Ipopt" in error or "type mismatch" in error:
+        return ("IPOPT refused this value (wrong type, or not one of the option's settings; "
+                f"IPOPT's documentation of {key.split('.', 1)[-1]!r} lists them): {last}")
+    return f"CasADi could not build IPOPT with it: {last}"
+
+
+def _did_you_mean(key: str, names) -> str:
+    close = difflib.get_close_matches(key, list(names), n=3, cutoff=0.6)
+    return f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
+
+
+_LIST_IPOPT_OPTIONS = """
+import casadi as ca
+x = ca.MX.sym("x")
+ca.nlpsol("s", "ipopt", {"x": x, "f": x * x},
+          {"ipopt.print_options_documentation": "yes", "print_time": False})(x0=1)
+"""
+
+
+@lru_cache(maxsize=1)
+def ipopt_option_names() -> tuple:
+    """IPOPT's option names, as the installed IPOPT documents them (asked once, in a child
+    process: IPOPT prints its documentation on the C standard output). Only messages about
+    bad options need them; empty when the child fails."""
+    try:
+        done = subprocess.run([sys.executable, "-c", _LIST_IPOPT_OPTIONS], capture_output=True,
+                              text=True, timeout=60)
+    except (OSError, subprocess.SubprocessError):
+        return ()
+    return tuple(sorted(set(re.findall(r"^([a-z][a-z0-9_]+) {2,}", done.stdout, flags=re.M))))
+
+
+__all__ = ["IpoptSolver", "USABLE_STATUSES", "check_options", "ipopt_option_names",
+           "ipopt_options"]

@@ -6,6 +6,7 @@ import dataclasses
 import math
 import os
 import time
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -19,11 +20,22 @@ from .cycle import Cycle
 from .nlp import NlpSolver
 from .records import StartRecord  # noqa: F401 (re-exported: Plan.starts holds them)
 from .sampling import Evaluation, SamplingPlanner, clip_to_bounds, evaluate_batch, structured_starts
+from .starting import as_state, start_overlap
 
-STATUSES = ("nlp", "sampling", "sampling-fallback", "sampling-compiling", "docked", "stopped")
+STATUSES = ("nlp", "sampling", "sampling-fallback", "docked", "stopped", "start-in-collision",
+            "sampling-compiling")
 """Where a plan came from: the NLP, the sampler as chosen solver, the sampler after every NLP
-start failed, the sampler while the NLP's library for this cycle's structure compiles in the
-background, docking at a fixed goal, or the stop trajectory when nothing finite was found."""
+start failed, docking at a fixed goal, the stop trajectory when nothing finite was found, any
+of these from a start whose footprint already overlaps the map or an obstacle
+(``start-in-collision``: the plan is still made, and the message names the overlap), or the
+sampler while the NLP's library for this cycle's structure compiles in the background
+(``sampling-compiling``). New statuses are appended, so stored indices keep their meaning."""
+
+FALLBACK_STATUSES = ("sampling-fallback", "stopped")
+"""Statuses of a plan the chosen solver did not deliver."""
+
+FALLBACK_WARNING = 3
+"""Plans in a row that fall back before the planner warns (once, until :meth:`Planner.reset`)."""
 
 COMPILE_MODES = ("background", "wait")
 """What :meth:`Planner.plan` does when the NLP's library for a cycle is not compiled yet:
@@ -62,6 +74,9 @@ class Plan:
         Seconds spent in :meth:`Planner.plan`.
     evaluated : Evaluation or None
         The sampled z with their exact costs, when the sampler ran (for plots and cross-checks).
+    fallbacks_in_row : int
+        Plans in a row, this one included, with a status in :data:`FALLBACK_STATUSES` (0 when
+        this plan is not a fallback).
     """
 
     x: np.ndarray
@@ -76,6 +91,7 @@ class Plan:
     starts: tuple = ()
     wall_time: float = 0.0
     evaluated: Evaluation | None = field(default=None, repr=False)
+    fallbacks_in_row: int = 0
 
     @property
     def z(self) -> np.ndarray:
@@ -122,6 +138,7 @@ class Planner:
         if self.solver.method != "sampling":
             self.nlp = NlpSolver(self.config, self.solver)
         self._previous_target = None
+        self._fallbacks, self._warned = 0, False
 
     def prepare(self) -> dict:
         """Compile (or load) everything a plan may need, now: the NLP's problem of every object
@@ -136,8 +153,9 @@ class Planner:
         return {"nlp_s": nlp_s, "exact_s": time.perf_counter() - started - nlp_s}
 
     def reset(self) -> None:
-        """Forget the warm start (a new episode)."""
+        """Forget the warm start and the fallback count (a new episode)."""
         self._previous_target = None
+        self._fallbacks, self._warned = 0, False
 
     def plan(self, state: RobotState, world, goal, *, dock: bool = True,
              sample: bool = False) -> Plan:
@@ -145,7 +163,8 @@ class Planner:
 
         Parameters
         ----------
-        state : RobotState
+        state : RobotState or array_like
+            A :class:`RobotState`, or ``(x, y, phi[, v, omega])`` in m, rad, m/s, rad/s.
         world : World
             Static map and the dynamic obstacles now.
         goal : array_like, (2,)
@@ -164,9 +183,16 @@ class Planner:
         Raises
         ------
         InputError
-            Only for a ``goal`` that is not a finite (x, y) pair.
+            Only for a ``goal`` that is not a finite (x, y) pair, or a ``state`` that is neither
+            a RobotState nor 3 or 5 finite numbers.
+
+        Warns
+        -----
+        RuntimeWarning
+            Once (until :meth:`reset`), when :data:`FALLBACK_WARNING` plans in a row fell back.
         """
         started = time.perf_counter()
+        state = as_state(state)
         try:
             goal = np.asarray(goal, dtype=float)
         except (TypeError, ValueError):
@@ -204,9 +230,23 @@ class Planner:
         if trouble:
             plan = _replace(plan, message="; ".join(trouble) + "; " + plan.message,
                             success=False)
-        plan = _replace(plan, wall_time=time.perf_counter() - started, evaluated=evaluated)
+        with np.errstate(all="ignore"):     # a start at 1e300 m overflows; it is no overlap
+            overlap = _attempt([], "the overlap", start_overlap, state, world, self.config)
+        if overlap:
+            plan = _replace(plan, status="start-in-collision", success=False,
+                            message=f"{overlap}; {plan.message}")
+        plan = _replace(plan, wall_time=time.perf_counter() - started, evaluated=evaluated,
+                        fallbacks_in_row=self._count_fallback(plan))
         self._previous_target = (plan.trajectory.target, float(plan.x[3]))
         return plan
+
+    def _count_fallback(self, plan: Plan) -> int:
+        self._fallbacks = self._fallbacks + 1 if plan.status in FALLBACK_STATUSES else 0
+        if self._fallbacks >= FALLBACK_WARNING and not self._warned:
+            self._warned = True
+            warnings.warn(f"{self._fallbacks} plans in a row fell back ({plan.status}): "
+                          f"{plan.message}", RuntimeWarning, stacklevel=3)
+        return self._fallbacks
 
     # -- the pieces of plan() ---------------------------------------------------------------
 
@@ -220,9 +260,13 @@ class Planner:
         z = z_from_target((goal[0], goal[1], heading), self.config.robot.v_limit, state.pose)
         z = clip_to_bounds(np.array(z, dtype=float), self.config)
         ev = evaluate_batch(z, cycle)
-        if not ev.costs.survivability[0, -1] > docking.min_survival:
+        survival = float(ev.costs.survivability[0, -1])
+        if not survival > docking.min_survival:
             return None
-        return self._plan_from(ev, 0, "docked", True, "docked at the goal", 0, ())
+        message = (f"docked: the goal is {distance:.2f} m away, within the docking radius "
+                   f"{docking.radius:g} m; heading straight to it (horizon survivability "
+                   f"{survival:.2f} > {docking.min_survival:g})")
+        return self._plan_from(ev, 0, "docked", True, message, 0, ())
 
     def _solve_nlp(self, cycle: Cycle, starts) -> tuple:
         """Every NLP start's record with its exact cost."""
@@ -288,7 +332,9 @@ class Planner:
         survival = np.zeros((1, trajectory.poses.shape[0]))
         cost = CostBreakdown(inf, {name: np.zeros(1) for name in TERM_NAMES}, survival,
                              np.full(1, -math.inf), inf, np.zeros(1))[0]
-        return Plan(z, math.inf, False, "no finite cost anywhere: stopping", 0, trajectory,
+        message = ("stopped: no start, solve or sample had a finite cost (or every stage "
+                   "failed), so the robot brakes to a stop (v_max = 0); cost reported as inf")
+        return Plan(z, math.inf, False, message, 0, trajectory,
                     _control(trajectory, self.config), cost, "stopped", tuple(records))
 
     def _plan_from(self, ev: Evaluation, index, status, success, message, nit, records) -> Plan:

@@ -22,6 +22,7 @@ from matplotlib.patches import Circle
 
 from ..core.errors import InputError
 from ..core.geometry import footprint_points
+from ..sim.metrics import collision_kind
 
 ROBOT_COLOURS = ("tab:blue", "tab:purple", "tab:cyan", "tab:olive", "tab:brown", "tab:pink",
                  "navy", "teal", "darkorange", "slategray")
@@ -57,41 +58,93 @@ def _limits(episode, ax):
     ax.set_aspect("equal")
 
 
-def _footprint(ax, pose, circles, colour, alpha=0.8):
+def _footprint(ax, pose, circles, colour, alpha=0.8, label=None):
     points = footprint_points(np.asarray(pose, dtype=float), circles[:, :2])
-    return [ax.add_patch(Circle(p, r, color=colour, alpha=alpha, zorder=4))
-            for p, r in zip(points, circles[:, 2])]
+    return [ax.add_patch(Circle(p, r, color=colour, alpha=alpha, zorder=4,
+                                label=label if n == 0 else None))
+            for n, (p, r) in enumerate(zip(points, circles[:, 2]))]
 
 
-def draw_cycle(ax, episode, cycle: int, *, samples: bool = True, title: bool = True) -> None:
-    """One moment of an episode: map, pedestrians with traces, robots, paths so far, plans."""
+def _once(seen: set, label: str):
+    """``label`` the first time it is asked for, None after: one legend entry per kind."""
+    if label in seen:
+        return None
+    seen.add(label)
+    return label
+
+
+def legend(ax, *, fontsize: float = 7) -> None:
+    """The legend outside the axes, on the right: robots by name and colour, pedestrians and
+    their paths, parked robots, goals, plans, sampled trajectories (what the figure holds)."""
+    handles, labels = ax.get_legend_handles_labels()
+    if handles:
+        box = ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.02, 1.0),
+                        fontsize=fontsize, frameon=False, borderaxespad=0.0)
+        for handle in getattr(box, "legend_handles", None) or box.legendHandles:
+            handle.set_alpha(1.0)      # faint fans and thin plans, legible in the legend
+            if hasattr(handle, "set_linewidth") and hasattr(handle, "get_xdata"):
+                handle.set_linewidth(max(handle.get_linewidth(), 1.2))
+
+
+def outcome_caption(episode) -> str:
+    """Each robot's outcome, a collision told apart as at-fault or struck, with its time."""
+    words = []
+    for i, (name, outcome) in enumerate(zip(episode.meta["robots"], episode.outcomes)):
+        kind = collision_kind(episode, i) if outcome == "collision" else None
+        when = episode.outcome_times[i] if i < len(episode.outcome_times) else None
+        at = f" at t = {when:.1f} s" if when is not None and np.isfinite(when) else ""
+        words.append(f"{name}: {outcome}{f' ({kind})' if kind else ''}{at}")
+    return "outcome: " + "; ".join(words)
+
+
+def _axes_labels(ax) -> None:
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+
+
+def draw_cycle(ax, episode, cycle: int, *, samples: bool = True, title: bool = True,
+               full_paths: bool = False) -> None:
+    """One moment of an episode: map, pedestrians with traces (``full_paths``: their whole
+    paths so far), robots, paths so far, plans; every kind labelled for :func:`legend`."""
     draw_map(ax, episode.grid)
     k = int(np.clip(cycle, 0, episode.n_cycles))
     dt = episode.dt
+    seen = set()
     followed = {int(f[0]) for f in episode.meta["follow"] if f is not None}
-    first = max(0, k - int(round(TRACE_SECONDS / dt)))
+    first = 0 if full_paths else max(0, k - int(round(TRACE_SECONDS / dt)))
+    trace_words = "path" if full_paths else f"last {TRACE_SECONDS:g} s"
     for j, radius in enumerate(episode.ped_radii):
         colour = "tab:green" if j in followed else "tab:red"
+        kind = "followed pedestrian" if j in followed else "pedestrian"
         trace = episode.ped_positions[first:k + 1, j]
-        ax.plot(trace[:, 0], trace[:, 1], color=colour, lw=1, alpha=0.6, zorder=2)
-        ax.add_patch(Circle(trace[-1], radius, color=colour, alpha=0.8, zorder=3))
+        ax.plot(trace[:, 0], trace[:, 1], color=colour, lw=1, alpha=0.6, zorder=2,
+                label=_once(seen, f"{kind} ({trace_words})"))
+        ax.add_patch(Circle(trace[-1], radius, color=colour, alpha=0.8, zorder=3,
+                            label=_once(seen, kind)))
     for parked in episode.meta["parked"]:
-        _footprint(ax, parked["pose"], np.asarray(parked["footprint"]), "dimgray")
+        _footprint(ax, parked["pose"], np.asarray(parked["footprint"]), "dimgray",
+                   label=_once(seen, "parked robot"))
     for i in range(episode.n_robots):
         colour = _robot_colour(i)
+        name = episode.meta["robots"][i]
         if samples and (i, k) in episode.samples:
             poses, _ = episode.samples[(i, k)]
             for p in poses:
-                ax.plot(p[:, 0], p[:, 1], color="0.6", lw=0.4, alpha=0.5, zorder=1)
+                ax.plot(p[:, 0], p[:, 1], color="0.6", lw=0.4, alpha=0.5, zorder=1,
+                        label=_once(seen, "sampled trajectories"))
         path = episode.states[i, :k + 1]
-        ax.plot(path[:, 0], path[:, 1], color=colour, lw=1.5, zorder=3)
+        ax.plot(path[:, 0], path[:, 1], color=colour, lw=1.5, zorder=3,
+                label=f"robot {name!s} (path)")
         if episode.plan_poses is not None and k < episode.n_cycles and episode.active[i, k]:
             plan = episode.plan_poses[i, k]
-            ax.plot(plan[:, 0], plan[:, 1], color=colour, lw=1.0, ls="--", zorder=3)
+            ax.plot(plan[:, 0], plan[:, 1], color=colour, lw=1.0, ls="--", zorder=3,
+                    label=_once(seen, "current plan (dashed)"))
         _footprint(ax, episode.states[i, k, :3], episode.footprint(i), colour)
         goal = episode.goals[i, k]
-        ax.plot(goal[0], goal[1], marker="x", color=colour, ms=7, mew=2, zorder=5)
+        ax.plot(goal[0], goal[1], marker="x", color=colour, ms=7, mew=2, zorder=5, ls="none",
+                label=_once(seen, "goal (x, robot's colour)"))
     _limits(episode, ax)
+    _axes_labels(ax)
     if title:
         ax.set_title(f"{episode.meta['scenario']} ({episode.meta['variant']}), "
                      f"t = {episode.times[k]:.1f} s", fontsize=9)
@@ -99,18 +152,24 @@ def draw_cycle(ax, episode, cycle: int, *, samples: bool = True, title: bool = T
 
 def episode_figure(episode, *, cycle: int | None = None, path=None):
     """The paper-style frame of an episode (default: its last state, every recorded sample)."""
-    fig, ax = plt.subplots(figsize=(7, 6))
+    fig, ax = plt.subplots(figsize=(8.5, 6))
     k = episode.n_cycles if cycle is None else cycle
-    draw_cycle(ax, episode, k, samples=False)
+    draw_cycle(ax, episode, k, samples=False, full_paths=True)
+    label = "sampled trajectories (recorded cycles)"
     for poses, _ in episode.samples.values():  # every recorded evaluation, grey
         for p in poses:
-            ax.plot(p[:, 0], p[:, 1], color="0.7", lw=0.3, alpha=0.4, zorder=1)
+            ax.plot(p[:, 0], p[:, 1], color="0.7", lw=0.3, alpha=0.4, zorder=1, label=label)
+            label = None
     if episode.plan_poses is not None:  # the optimum of every cycle, thin
+        label = "each cycle's plan (thin)"
         for i in range(episode.n_robots):
             for p in episode.plan_poses[i][episode.active[i]]:
-                ax.plot(p[:, 0], p[:, 1], color=_robot_colour(i), lw=0.3, alpha=0.3, zorder=1)
-    outcomes = ", ".join(f"{n}: {o}" for n, o in zip(episode.meta["robots"], episode.outcomes))
-    ax.set_xlabel(outcomes, fontsize=8)
+                ax.plot(p[:, 0], p[:, 1], color=_robot_colour(i), lw=0.3, alpha=0.3, zorder=1,
+                        label=label)
+                label = None
+    legend(ax)
+    fig.text(0.5, 0.01, outcome_caption(episode), ha="center", va="bottom", fontsize=8,
+             wrap=True)
     return _finish(fig, path)
 
 
@@ -129,9 +188,10 @@ def compare_figure(episodes: dict, *, path=None):
     n = len(episodes)
     fig, axes = plt.subplots(1, n, figsize=(5.5 * n, 5), squeeze=False, layout="constrained")
     for ax, (name, episode) in zip(axes[0], episodes.items()):
-        draw_cycle(ax, episode, episode.n_cycles, samples=False, title=False)
-        outcomes = ", ".join(episode.outcomes)
-        ax.set_title(f"{name}: {outcomes}", fontsize=10)
+        draw_cycle(ax, episode, episode.n_cycles, samples=False, title=False, full_paths=True)
+        outcomes = outcome_caption(episode).removeprefix("outcome: ")
+        ax.set_title(f"{name}: {outcomes}", fontsize=8, wrap=True)
+    legend(axes[0, -1])
     # Height from the scene's aspect ratio, so a long corridor is not framed by blank space.
     (x0, x1), (y0, y1) = axes[0, 0].get_xlim(), axes[0, 0].get_ylim()
     aspect = abs(y1 - y0) / max(abs(x1 - x0), 1e-9)
@@ -163,6 +223,7 @@ def cost_panels(panels, *, path=None):
         ax.set_xlim(state.x - reach, state.x + reach)
         ax.set_ylim(state.y - reach, state.y + reach)
         ax.set_aspect("equal")
+        _axes_labels(ax)
         ax.set_title(title, fontsize=10)
     return _finish(fig, path)
 
