@@ -118,8 +118,10 @@ class NlpSolver:
     def prepare(self) -> float:
         """Build (compile, or load) the problem of every object bucket now; seconds spent."""
         started = time.perf_counter()
-        for bucket in self.solver_config.pose_object_buckets:
-            sizes = dataclasses.replace(self.sizes, pose_objects=bucket)
+        every = [dataclasses.replace(self.sizes, pose_objects=bucket)
+                 for bucket in self.solver_config.pose_object_buckets]
+        solvers.compile_missing([(self.config, sizes) for sizes in every], self.solver_config)
+        for sizes in every:
             self._seen.add(solvers.problem(self.config, sizes, self.solver_config))
         return time.perf_counter() - started
 

@@ -132,24 +132,33 @@ def build(variants=None, solver: SolverConfig | None = None, workers: int | None
     configurations), ``libraries`` (distinct compiled structures) and ``compiled_now`` (how
     many were compiled by this call).
     """
-    from . import background
-    from .problem import library_key
-
     solver = SolverConfig() if solver is None else solver
     started = time.perf_counter()
     wanted = [(PlannerConfig.variant(name), nlp_global.GraphSizes(pose_objects=bucket))
               for name in (VARIANTS if variants is None else variants)
               for bucket in solver.pose_object_buckets]
-    keys = {library_key(config, sizes, solver): (config, sizes) for config, sizes in wanted}
-    missing = [key for key in keys if not compiled_library_exists(key)]
-    background.run_all([(key, *keys[key], solver) for key in missing],
-                       workers or _build_workers())
+    libraries, missing = compile_missing(wanted, solver, workers)
     built = [problem(config, sizes, solver) for config, sizes in wanted]
     if built and built[0].functions.compiled:
         _warm_newton_loop(built[0])
     return {"compiled": all(p.functions.compiled for p in built),
             "seconds": time.perf_counter() - started, "problems": len(built),
-            "libraries": len(keys), "compiled_now": len(missing)}
+            "libraries": libraries, "compiled_now": missing}
+
+
+def compile_missing(wanted, solver: SolverConfig, workers: int | None = None) -> tuple:
+    """Compile the libraries of ``wanted`` (``(config, sizes)`` pairs) missing from the cache,
+    in up to ``workers`` child processes at once (default :func:`_build_workers`); returns
+    ``(distinct libraries, libraries compiled)``."""
+    from . import background
+    from .problem import library_key
+
+    keys = {library_key(config, sizes, solver): (config, sizes) for config, sizes in wanted}
+    missing = [key for key in keys if not compiled_library_exists(key)]
+    if len(missing) > 1:    # one alone compiles in this process, as it would in a plan
+        background.run_all([(key, *keys[key], solver) for key in missing],
+                           workers or _build_workers())
+    return len(keys), len(missing)
 
 
 def compiled_library_exists(key: str) -> bool:
