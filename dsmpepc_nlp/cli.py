@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .bench import commands
+from .bench import commands, failure_report
 from .core import options
 from .core.config import VARIANTS, PlannerConfig
 from .core.errors import InputError
@@ -233,6 +233,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_build)
 
     commands.register(sub, _scenario_options)
+    failure_report.register(sub)
     return parser
 
 
