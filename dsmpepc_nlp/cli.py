@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .bench import commands
+from .bench import commands, failure_report
 from .core import options
 from .core.config import VARIANTS, PlannerConfig
 from .core.errors import InputError
@@ -243,6 +243,7 @@ def build_parser() -> argparse.ArgumentParser:
                          ("bench", BENCH_EPILOG)):
         sub.choices[name].epilog = epilog
         sub.choices[name].formatter_class = argparse.RawDescriptionHelpFormatter
+    failure_report.register(sub)
     return parser
 
 

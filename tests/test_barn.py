@@ -116,7 +116,8 @@ def test_benchmark_resume_skips_done_worlds(tmp_path, monkeypatch):
     assert 0 < summary["plan_time_median"] <= summary["plan_time_p95"]
     ran = []
     original = barn.run_world
-    monkeypatch.setattr(barn, "run_world", lambda i, st: ran.append(i) or original(i, st))
+    monkeypatch.setattr(barn, "run_world",
+                        lambda i, st, *out: ran.append(i) or original(i, st, *out))
     rows, summary = barn.run_benchmark(s, [0, 1], tmp_path / "out", workers=1, resume=True,
                                        progress=None)
     assert ran == [1] and [r["world"] for r in rows] == [0, 1]

@@ -39,7 +39,7 @@ from ..sim.simulate import simulate
 from ..sim.types import Agent, FixedGoal, Scenario
 from ..viz import figures
 from .params import configure
-from .results import ResultTable
+from .results import ResultTable, keep_failure
 from .runner import mean, outcome_rates, plan_time_summary, run_all
 
 CELL = 0.15
@@ -286,8 +286,9 @@ def solver_config(name: str, n_samples: int | None = None) -> SolverConfig:
     return replace(solver, n_samples=n_samples) if n_samples else solver
 
 
-def run_world(index: int, settings: BarnSettings) -> dict:
-    """Run one world; the result row (never raises: an exception becomes ``outcome = error``)."""
+def run_world(index: int, settings: BarnSettings, out_dir=None) -> dict:
+    """Run one world; the result row (never raises: an exception becomes ``outcome = error``).
+    An unsuccessful run's episode is kept in ``out_dir`` (:func:`~.results.keep_failure`)."""
     row = {"world": int(index), "variant": settings.variant, "solver": settings.solver}
     started = time.perf_counter()
     try:
@@ -305,7 +306,9 @@ def run_world(index: int, settings: BarnSettings) -> dict:
             path_length=m["path_length"], reference_path_length=world.path_length,
             min_static_clearance=m["min_static_clearance"],
             plan_time_median=m["plan_time_median"], plan_time_p95=m["plan_time_p95"],
-            fallback_plans=m["fallback_plans"], cycles=m["cycles"])
+            fallback_plans=m["fallback_plans"], cycles=m["cycles"],
+            episode_file=keep_failure(episode, out_dir, f"barn-{index}-{settings.variant}-"
+                                                        f"{settings.solver}"))
         metrics = world.metrics
         for k, name in enumerate(METRIC_NAMES):
             row[name] = float(metrics[k]) if metrics is not None else None
@@ -337,7 +340,7 @@ def run_benchmark(settings: BarnSettings, worlds, out_dir, *, workers: int | Non
         if not table.done((w, settings.variant, settings.solver)) \
                 and not world_files(settings.data, w)["grid"].exists():
             raise InputError(f"BARN data {settings.data!r}: no grid_files/grid_{w}.npy")
-    run_all(run_world, [(w, settings) for w in worlds], table, label="barn",
+    run_all(run_world, [(w, settings, str(out_dir)) for w in worlds], table, label="barn",
             key=lambda task: (task[0], settings.variant, settings.solver), workers=workers,
             progress=progress, describe=lambda row: f"world {row['world']}: {row['outcome']}")
     rows = [r for r in table.rows if r["variant"] == settings.variant

@@ -350,12 +350,15 @@ def with_swept_contact(log):
     return dataclasses.replace(log, outcomes=["collision"], outcome_times=[t])
 
 
-def run_episode(settings: CrowdNavSettings, variant: str, episode: int, seed: int) -> dict:
+def run_episode(settings: CrowdNavSettings, variant: str, episode: int, seed: int,
+                out_dir=None) -> dict:
     """One CrowdNav episode with one planner variant (``orca``, ``cv`` included); the row."""
     row = {"episode": int(episode), "seed": int(seed), "variant": variant,
            "scene": settings.scene, "setting": settings.setting}
     return measured_row(row, lambda: simulate_episode(settings, variant, episode, seed,
-                                                      record_trajectories=False)[0])
+                                                      record_trajectories=False)[0],
+                        keep=(out_dir, f"crowdnav-{settings.scene}-{settings.setting}-"
+                                       f"{variant}-{seed}-{episode}"))
 
 
 def run_benchmark(settings: CrowdNavSettings, variants, episodes: int, seed: int, out_dir, *,

@@ -36,7 +36,7 @@ from ..sim.simulate import simulate
 from ..sim.types import Agent, FixedGoal, Pedestrian, Scenario
 from .cv import CROWD_BASELINES, ConstantVelocityPlanner
 from .orca import check_variants, simulate_orca
-from .results import ResultTable
+from .results import ResultTable, keep_failure
 from .runner import mean, outcome_rates, plan_time_summary, run_all
 
 FRAMES_PER_STEP = 10
@@ -271,7 +271,8 @@ def episode_scenario(settings: CrowdSettings, episode: int, seed: int):
                              name=f"{settings.scene}-{seed}-{episode}")
 
 
-def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int) -> dict:
+def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int,
+                out_dir=None) -> dict:
     """One crossing with one planner variant (``orca``, ``cv`` included); the result row."""
     row = {"episode": int(episode), "seed": int(seed), "variant": variant}
 
@@ -290,7 +291,8 @@ def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int) 
         return simulate(scenario, PlannerConfig.variant(variant), solver, rng,
                         record_trajectories=False)
 
-    return measured_row(row, run, lambda episode: {"contact_age": contact_age(episode)})
+    return measured_row(row, run, lambda episode: {"contact_age": contact_age(episode)},
+                        keep=(out_dir, f"crowd-{settings.scene}-{variant}-{seed}-{episode}"))
 
 
 def contact_age(episode, robot: int = 0) -> float:
@@ -307,16 +309,18 @@ def contact_age(episode, robot: int = 0) -> float:
     return float(episode.times[k] - (episode.times[gone[-1] + 1] if gone.size else 0.0))
 
 
-def measured_row(row: dict, run, extra=None) -> dict:
+def measured_row(row: dict, run, extra=None, keep=(None, "")) -> dict:
     """``row`` with the :func:`crowd_fields` of the episode ``run()`` returns (and
     ``extra(episode)``) and its ``wall_time``; ``outcome="error"`` and the message when ``run``
-    raises (an ImportError, a missing extra, propagates). Shared by the crowd benchmarks."""
+    raises (an ImportError, a missing extra, propagates). Shared by the crowd benchmarks.
+    ``keep = (out_dir, stem)``: where an unsuccessful episode is kept (:func:`keep_failure`)."""
     started = time.perf_counter()
     try:
         episode = run()
         row.update(crowd_fields(episode_metrics(episode)[0]))
         if extra is not None:
             row.update(extra(episode))
+        row["episode_file"] = keep_failure(episode, *keep)
     except ImportError:
         raise
     except Exception as exc:
@@ -396,7 +400,8 @@ def run_variants(run_episode, settings, variants, episodes: int, seed: int, tabl
     """:func:`~dsmpepc_nlp.bench.runner.run_all` over every (variant, episode) of a crowd
     benchmark (``run_episode(settings, variant, episode, seed)``) into ``table``; the
     :func:`summarise` of each variant's rows, by variant."""
-    run_all(run_episode, [(settings, v, e, seed) for v in variants for e in range(episodes)],
+    run_all(run_episode, [(settings, v, e, seed, str(table.folder)) for v in variants
+                          for e in range(episodes)],
             table, label=label, key=lambda task: (task[1], task[2], task[3]),
             workers=workers, progress=progress,
             describe=lambda row: f"{row['variant']} episode {row['episode']}: {row['outcome']}")

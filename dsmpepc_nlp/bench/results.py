@@ -25,6 +25,20 @@ from ..core.jsonio import dumps, json_clean  # noqa: F401 (re-exported)
 
 TABLE_FORMAT = 1
 """Version of the JSON layout written by :class:`ResultTable`."""
+EPISODES = "episodes"
+"""Sub-folder of a benchmark's ``--out`` holding the episodes of its unsuccessful runs."""
+
+
+def keep_failure(episode, out_dir, stem: str) -> str | None:
+    """Save ``episode`` as ``out_dir/episodes/<stem>.npz`` when any robot did not succeed, so
+    ``dsmpepc failures`` can classify it; the path relative to ``out_dir`` (the row's
+    ``episode_file``), or None (all succeeded, or ``out_dir`` is None). Successes are not kept:
+    a failure's file is a few hundred kB, and failures are what gets studied."""
+    if out_dir is None or all(o == "success" for o in episode.outcomes):
+        return None
+    relative = Path(EPISODES) / f"{stem}.npz"
+    episode.save(Path(out_dir) / relative)
+    return relative.as_posix()
 
 
 class TableExistsError(InputError, FileExistsError):

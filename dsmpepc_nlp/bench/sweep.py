@@ -11,6 +11,7 @@ every pair of swept parameters are ``sweep_<p>_<q>.png``.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import itertools
 import json
 import math
@@ -28,7 +29,7 @@ from ..sim.simulate import simulate
 from ..viz import figures
 from .orca import check_variants, simulate_orca
 from .params import SECTIONS, configure, parse_params  # noqa: F401 (re-exported)
-from .results import ResultTable
+from .results import ResultTable, keep_failure
 from .runner import mean, outcome_rates, plan_time_summary, run_all
 
 
@@ -66,8 +67,9 @@ def _key_text(params: dict) -> str:
     return json.dumps({k: float(v) for k, v in sorted(params.items())}, sort_keys=True)
 
 
-def run_one(run: dict, settings: SweepSettings) -> dict:
-    """One run; its row. Exceptions become ``status = "failed"`` with the message."""
+def run_one(run: dict, settings: SweepSettings, out_dir=None) -> dict:
+    """One run; its row. Exceptions become ``status = "failed"`` with the message. An
+    unsuccessful run's episode is kept in ``out_dir`` (:func:`~.results.keep_failure`)."""
     row = {"key": _key_text(run["params"]), **{k: float(v) for k, v in run["params"].items()},
            "scenario": run["scenario"], "seed": run["seed"]}
     if "variant" in run:
@@ -101,11 +103,20 @@ def run_one(run: dict, settings: SweepSettings) -> dict:
             min_static_clearance=float(min(m["min_static_clearance"] for m in metrics)),
             min_dynamic_clearance=float(min(m["min_dynamic_clearance"] for m in metrics)),
             plan_time_median=float(np.nanmedian([m["plan_time_median"] for m in metrics])),
-            plan_time_p95=float(np.nanpercentile([m["plan_time_p95"] for m in metrics], 95)))
+            plan_time_p95=float(np.nanpercentile([m["plan_time_p95"] for m in metrics], 95)),
+            episode_file=keep_failure(episode, out_dir, _stem(run, variant)))
     except Exception as exc:
         row.update(status="failed", message=f"{type(exc).__name__}: {exc}")
     row["wall_time"] = time.perf_counter() - started
     return row
+
+
+def _stem(run: dict, variant: str) -> str:
+    """File stem of a run's kept episode: variant, scenario, seed (and the parameters' hash)."""
+    stem = f"{variant}-{Path(run['scenario']).stem}-seed{run['seed']}"
+    if run["params"]:
+        stem += "-" + hashlib.sha1(_key_text(run["params"]).encode()).hexdigest()[:10]
+    return stem
 
 
 def _describe(row) -> str:
@@ -127,7 +138,7 @@ def run_sweep(params: dict, scenarios, seeds, settings: SweepSettings, out_dir, 
     table = ResultTable(out_dir, "sweep", ("key", "scenario", "seed"), meta, resume=resume,
                         overwrite=overwrite)
     runs = expand_grid(params, scenarios, seeds)
-    run_all(run_one, [(r, settings) for r in runs], table, label="sweep",
+    run_all(run_one, [(r, settings, str(out_dir)) for r in runs], table, label="sweep",
             key=lambda task: (_key_text(task[0]["params"]), task[0]["scenario"],
                               task[0]["seed"]),
             workers=workers, scheduler=scheduler, progress=progress, describe=_describe)
@@ -189,7 +200,8 @@ def run_scenarios(variants, scenarios, seeds, settings: SweepSettings, out_dir, 
                         resume=resume, overwrite=overwrite)
     runs = [{"params": {}, "variant": v, "scenario": s, "seed": int(k)}
             for v in variants for s in scenarios for k in seeds]
-    run_all(run_one, [(r, settings) for r in runs], table, label="scenarios",
+    run_all(run_one, [(r, settings, str(out_dir)) for r in runs], table,
+            label="scenarios",
             key=lambda task: (task[0]["variant"], task[0]["scenario"], task[0]["seed"]),
             workers=workers, scheduler=scheduler, progress=progress, describe=_describe)
     summary: dict = {"runs": len(runs), "variants": {}}

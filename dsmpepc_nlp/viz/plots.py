@@ -207,25 +207,31 @@ def cost_panels(panels, *, path=None):
     :func:`dsmpepc_nlp.sim.panels.cost_panels`): the first panel's trajectories grey, the
     others blue; obstacles, the robot and the goal in every panel.
     """
-    state, world, goal, reach = panels.state, panels.world, panels.goal, panels.reach
     fig, axes = plt.subplots(1, len(panels.panels), figsize=(16, 4.5))
     for k, (ax, (title, poses)) in enumerate(zip(axes, panels.panels)):
-        draw_map(ax, world.grid)
-        for obstacle in world.obstacles:
-            colour = "tab:red" if obstacle.kind == "pedestrian" else "dimgray"
-            for c, r in zip(obstacle.centers, obstacle.radii):
-                ax.add_patch(Circle(c, r, color=colour, alpha=0.8, zorder=3))
-        for p in poses:
-            ax.plot(p[:, 0], p[:, 1], color="0.5" if k == 0 else "tab:blue", lw=0.6, alpha=0.6,
-                    zorder=2)
-        _footprint(ax, state.pose, panels.footprint, "tab:blue")
-        ax.plot(*goal, marker="x", color="tab:green", ms=8, mew=2)
-        ax.set_xlim(state.x - reach, state.x + reach)
-        ax.set_ylim(state.y - reach, state.y + reach)
-        ax.set_aspect("equal")
-        _axes_labels(ax)
+        draw_cost_panel(ax, panels, poses, grey=k == 0)
         ax.set_title(title, fontsize=10)
     return _finish(fig, path)
+
+
+def draw_cost_panel(ax, panels, poses, *, grey: bool = False) -> None:
+    """One panel of :func:`cost_panels`: the scene around the robot and ``poses`` (grey or
+    blue)."""
+    state, world, goal, reach = panels.state, panels.world, panels.goal, panels.reach
+    draw_map(ax, world.grid)
+    for obstacle in world.obstacles:
+        colour = "tab:red" if obstacle.kind == "pedestrian" else "dimgray"
+        for c, r in zip(obstacle.centers, obstacle.radii):
+            ax.add_patch(Circle(c, r, color=colour, alpha=0.8, zorder=3))
+    for p in poses:
+        ax.plot(p[:, 0], p[:, 1], color="0.5" if grey else "tab:blue", lw=0.6, alpha=0.6,
+                zorder=2)
+    _footprint(ax, state.pose, panels.footprint, "tab:blue")
+    ax.plot(*goal, marker="x", color="tab:green", ms=8, mew=2)
+    ax.set_xlim(state.x - reach, state.x + reach)
+    ax.set_ylim(state.y - reach, state.y + reach)
+    ax.set_aspect("equal")
+    _axes_labels(ax)
 
 
 def animate(episode, path, *, fps: int | None = None, stride: int = 1):

@@ -1,0 +1,192 @@
+"""``dsmpepc failures OUT_DIR``: classify every unsuccessful run of a benchmark's ``--out``.
+
+Reads every result table in the folder (``<stem>.json`` written by
+:class:`~dsmpepc_nlp.bench.results.ResultTable`), takes the rows that did not succeed, loads the
+episode each kept (the row's ``episode_file``, :func:`~dsmpepc_nlp.bench.results.keep_failure`)
+and classifies each robot that did not succeed (:func:`~dsmpepc_nlp.bench.failures.classify`).
+A row without an episode (a run that raised, a table from before episodes were kept) is
+counted as ``unclassified`` with the reason. Writes ``failures.json`` and ``failures.md`` into the
+folder and one figure per class, ``failures-<class>.png``, with up to ``--figures`` examples
+(their scene and the cost panels of the stuck cycle).
+"""
+
+from __future__ import annotations
+
+import json
+from collections import Counter
+from pathlib import Path
+
+from ..core import options
+from ..core.config import RobotState
+from ..core.errors import InputError
+from ..core.files import atomic_write_text
+from ..core.jsonio import dumps, json_clean
+from ..sim.episode import Episode
+from ..sim.panels import cost_panels
+from ..viz import figures
+from .failures import CLASSES, classify
+from .results import TABLE_FORMAT
+
+REPORT = "failures"
+"""Stem of the report files the command writes into the folder."""
+PANEL_SAMPLES = 1024
+"""Samples per cost panel: a quarter of ``run --panels``'s, enough to see the cost's shape."""
+
+
+def unsuccessful(row: dict) -> bool:
+    """Whether a result row is a run that did not succeed (any of its robots)."""
+    if row.get("status") == "failed":
+        return True
+    if "outcomes" in row:
+        return any(o != "success" for o in str(row["outcomes"]).split(","))
+    return row.get("outcome", "success") != "success"
+
+
+def read_tables(out_dir) -> list:
+    """``(stem, key fields, rows)`` of every result table in ``out_dir``; InputError when it
+    is not a folder or holds none."""
+    folder = Path(out_dir)
+    if not folder.is_dir():
+        raise InputError(f"failures OUT_DIR {str(folder)!r}: not a folder")
+    tables = []
+    for path in sorted(folder.glob("*.json")):
+        if path.stem == REPORT:
+            continue
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            raise InputError(f"table {str(path)!r}: cannot read ({exc})") from None
+        if isinstance(data, dict) and data.get("format") == TABLE_FORMAT \
+                and isinstance(data.get("rows"), list):
+            tables.append((path.stem, list(data.get("key_fields", [])), data["rows"]))
+    if not tables:
+        raise InputError(f"failures OUT_DIR {str(folder)!r}: no benchmark table (a <name>.json "
+                         "written by 'dsmpepc benchmark') in it")
+    return tables
+
+
+def classify_folder(out_dir) -> dict:
+    """The report of ``out_dir``: runs, counts per class, each failure with its evidence."""
+    folder = Path(out_dir)
+    failures, unclassified, n_rows, n_failed = [], [], 0, 0
+    for stem, keys, rows in read_tables(folder):
+        for row in rows:
+            n_rows += 1
+            if not unsuccessful(row):
+                continue
+            n_failed += 1
+            label = f"{stem} " + " ".join(f"{k}={row.get(k)}" for k in keys)
+            name = row.get("episode_file")
+            if not name:
+                reason = row.get("message") or "no episode file in the row"
+                unclassified.append({"table": stem, "label": label, "reason": reason})
+                continue
+            try:
+                episode = Episode.load(folder / name)
+            except InputError as exc:
+                unclassified.append({"table": stem, "label": label, "reason": str(exc)})
+                continue
+            for robot, outcome in enumerate(episode.outcomes):
+                if outcome != "success":
+                    failures.append({"table": stem, "label": label, "episode_file": name,
+                                     **classify(episode, robot).to_dict()})
+    counts = Counter(f["class"] for f in failures)
+    return {"out": str(folder), "runs": n_rows, "unsuccessful_runs": n_failed,
+            "counts": {name: counts[name] for name in CLASSES if counts[name]},
+            "unclassified": len(unclassified), "failures": failures,
+            "unclassified_runs": unclassified}
+
+
+def stuck_panels(episode, failure: dict, n_samples: int = PANEL_SAMPLES):
+    """The cost panels (:func:`~dsmpepc_nlp.sim.panels.cost_panels`) of the stuck cycle."""
+    robot, k = failure["robot"], failure["cycle"]
+    x, y, phi, v, omega = (float(s) for s in episode.states[robot, k])
+    return cost_panels(RobotState(x, y, phi, v, omega), episode.world_at(k, robot),
+                       episode.goals[robot, k], episode.config(), n_samples=n_samples)
+
+
+def draw_figures(report: dict, out_dir, n_examples: int, panels: bool = True) -> list:
+    """``failures-<class>.png`` with up to ``n_examples`` runs of each class; the paths."""
+    folder, paths = Path(out_dir), []
+    for name in CLASSES:  # a figure of an earlier report whose class is gone would mislead
+        (folder / f"{REPORT}-{name}.png").unlink(missing_ok=True)
+    for name, total in report["counts"].items():
+        examples = []
+        for failure in [f for f in report["failures"] if f["class"] == name][:n_examples]:
+            episode = Episode.load(folder / failure["episode_file"])
+            shown = stuck_panels(episode, failure) if panels else None
+            examples.append((failure["label"], episode, failure, shown))
+        if examples:
+            paths.append(figures("failures").failure_figure(
+                name, examples, folder / f"{REPORT}-{name}.png", total=total))
+    return [str(p) for p in paths]
+
+
+def markdown(report: dict) -> str:
+    """The report as a short markdown page: counts, then every failure with its evidence."""
+    lines = [f"# Failures in `{report['out']}`", "",
+             f"{report['unsuccessful_runs']} of {report['runs']} runs did not succeed.", "",
+             "| class | runs |", "|---|---|"]
+    lines += [f"| {name} | {n} |" for name, n in report["counts"].items()]
+    if report["unclassified"]:
+        lines.append(f"| unclassified | {report['unclassified']} |")
+    for name in report["counts"]:
+        lines += ["", f"## {name}", ""]
+        if any(Path(f).name == f"{REPORT}-{name}.png" for f in report.get("figures", [])):
+            lines += [f"![{name}]({REPORT}-{name}.png)", ""]
+        for f in (f for f in report["failures"] if f["class"] == name):
+            evidence = ", ".join(f"{k} {_short(v)}" for k, v in f["evidence"].items()
+                                 if not isinstance(v, list))
+            lines.append(f"- {f['label']} (robot {f['robot']}, {f['outcome']}, stuck cycle "
+                         f"t = {f['time']:.1f} s): {evidence}")
+    if report["unclassified_runs"]:
+        lines += ["", "## unclassified", ""]
+        lines += [f"- {u['label']}: {u['reason']}" for u in report["unclassified_runs"]]
+    return "\n".join(lines) + "\n"
+
+
+def _short(value) -> str:
+    return f"{value:.3g}" if isinstance(value, float) else str(value)
+
+
+def add_arguments(p) -> None:
+    p.add_argument("out_dir", metavar="OUT_DIR", help="a benchmark's --out folder")
+    p.add_argument("--figures", type=options.nonnegative, default=3, metavar="N",
+                   help="examples per class in its figure (0: no figures; default 3)")
+    p.add_argument("--no-panels", action="store_true",
+                   help="leave out the cost panels of the stuck cycle (faster)")
+    p.add_argument("--json", action="store_true", help="print the report as one JSON object")
+
+
+def run(args) -> int:
+    report = classify_folder(args.out_dir)
+    report["figures"] = draw_figures(report, args.out_dir, args.figures,
+                                     panels=not args.no_panels) if args.figures else []
+    folder = Path(args.out_dir)
+    atomic_write_text(folder / f"{REPORT}.json", dumps(json_clean(report)))
+    atomic_write_text(folder / f"{REPORT}.md", markdown(report))
+    if args.json:
+        print(json.dumps(json_clean(report), allow_nan=False))
+        return 0
+    print(f"{report['unsuccessful_runs']} of {report['runs']} runs did not succeed")
+    width = max((len(n) for n in report["counts"]), default=12)
+    for name, n in report["counts"].items():
+        print(f"  {name:{width}s} {n}")
+    if report["unclassified"]:
+        print(f"  {'unclassified':{width}s} {report['unclassified']}")
+    print(f"report: {folder / (REPORT + '.json')}, {folder / (REPORT + '.md')}")
+    for path in report["figures"]:
+        print(f"figure: {path}")
+    return 0
+
+
+def register(sub) -> None:
+    """Add ``failures`` to the subparsers ``sub``."""
+    p = sub.add_parser("failures", help="classify every unsuccessful run of a benchmark's "
+                       "--out folder (counts, report, a figure per class)",
+                       description="Classify why each unsuccessful run of a benchmark table "
+                       "failed, from its kept episode: counts per class, failures.json, "
+                       "failures.md and a figure per class.")
+    add_arguments(p)
+    p.set_defaults(func=run)
+

@@ -1,0 +1,265 @@
+"""The failure classifier on hand-built episodes whose class is known, and the command on a tiny
+benchmark folder made here (no shared data)."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from dsmpepc_nlp.bench import failures
+from dsmpepc_nlp.bench.failure_report import classify_folder, unsuccessful
+from dsmpepc_nlp.bench.failures import classify
+from dsmpepc_nlp.bench.results import ResultTable, keep_failure
+from dsmpepc_nlp.cli import main
+from dsmpepc_nlp.core.config import PlannerConfig
+from dsmpepc_nlp.core.errors import InputError
+from dsmpepc_nlp.core.world import OccupancyGrid
+from dsmpepc_nlp.sim.episode import Episode, config_to_dict
+
+DT = 0.2
+RADIUS = 0.3
+
+
+def make_episode(xy, outcome, *, peds=None, goal=(5.0, 0.0), grid=None, ped_radius=0.3):
+    """One round robot (r = 0.3) through positions ``xy`` (T, 2); pedestrians ``peds``
+    (T, P, 2); the outcome decided at the last state."""
+    xy = np.asarray(xy, dtype=float)
+    n = len(xy)
+    times = np.arange(n) * DT
+    step = np.diff(xy, axis=0)
+    phi = np.arctan2(step[:, 1], step[:, 0]) if n > 1 else np.zeros(0)
+    moving = np.linalg.norm(step, axis=1) > 1e-12
+    phi = np.where(moving, phi, 0.0)
+    phi = np.append(phi, phi[-1] if phi.size else 0.0)
+    speed = np.append(np.linalg.norm(step, axis=1) / DT, 0.0)
+    back = np.append(np.sign(np.sum(step * np.stack([np.cos(phi[:-1]), np.sin(phi[:-1])], 1),
+                                    axis=1)), 1.0)
+    states = np.zeros((1, n, 5))
+    states[0, :, :2], states[0, :, 2], states[0, :, 3] = xy, phi, speed * back
+    states[0, :-1, 4] = np.diff(np.unwrap(phi)) / DT
+    peds = np.zeros((n, 0, 2)) if peds is None else np.asarray(peds, dtype=float)
+    ped_v = np.zeros_like(peds)
+    ped_v[:-1] = np.diff(peds, axis=0) / DT
+    ped_v[-1] = ped_v[-2] if n > 1 else 0.0
+    k = n - 1
+    meta = {"scenario": "hand", "map_path": None, "dt": DT, "duration": times[-1],
+            "variant": "ds-mpepc", "solver": "sampling", "n_samples": 16, "robots": ["a"],
+            "footprints": [[[0.0, 0.0, RADIUS]]], "goal_kinds": ["fixed"],
+            "goal_tolerances": [0.25], "follow": [None], "parked": [],
+            "config": config_to_dict(PlannerConfig())}
+    nan = np.full((1, k), np.nan)
+    return Episode(
+        times=times, states=states, active=np.ones((1, k), bool),
+        goals=np.tile(np.asarray(goal, dtype=float), (1, n, 1)), z=np.full((1, k, 4), np.nan),
+        cost_total=nan, cost_terms=np.full((1, k, 5), np.nan), survivability=nan, ttg=nan,
+        ttc_terminal=nan, status=np.zeros((1, k), int), nit=np.zeros((1, k), int),
+        plan_time=np.full((1, k), 0.01), n_starts=np.ones((1, k), int), plan_poses=None,
+        ped_positions=peds, ped_velocities=ped_v,
+        ped_radii=np.full(peds.shape[1], ped_radius),
+        grid_occupied=None if grid is None else grid.occupied,
+        grid_resolution=None if grid is None else grid.resolution,
+        grid_origin=None if grid is None else np.asarray(grid.origin),
+        outcomes=[outcome], outcome_times=[float(times[-1])], meta=meta)
+
+
+def standing(n, at=(0.0, 0.0)):
+    return np.tile(np.asarray(at, dtype=float), (n, 1))
+
+
+STALL = 61  # 12 s of states: longer than the 10 s stuck window
+
+
+# -- collisions ----------------------------------------------------------------------------------
+
+
+def test_driving_into_a_standing_person_is_at_fault():
+    xy = np.stack([np.arange(4) * 0.2, np.zeros(4)], 1)            # 1 m/s along +x
+    ep = make_episode(xy, "collision", peds=np.tile([[[1.0, 0.0]]], (4, 1, 1)))
+    f = classify(ep)
+    assert f.name == "at-fault"
+    assert f.evidence["collision_kind"] == "at-fault"
+    assert f.evidence["touched"] == "pedestrian" and f.evidence["pedestrian"] == 0
+    assert f.evidence["robot_speed"] == pytest.approx(1.0)
+    assert f.evidence["approach_speed"] > 0.5
+    assert f.cycle == 2  # the last cycle planned before the contact state
+
+
+def test_a_standing_robot_hit_by_a_walker_is_struck_while_stopped():
+    ped = np.stack([2.0 - np.arange(8) * 0.2, np.zeros(8)], 1)[:, None, :]
+    ep = make_episode(standing(8), "collision", peds=ped)
+    f = classify(ep)
+    assert f.name == "struck-stopped"
+    assert f.evidence["collision_kind"] == "struck"
+    assert f.evidence["robot_speed"] == pytest.approx(0.0)
+    assert f.evidence["pedestrian_speed"] == pytest.approx(1.0)
+
+
+def test_a_robot_hit_side_on_while_driving_is_struck_while_moving():
+    n = 8
+    y = np.arange(n) * 0.1                                          # 0.5 m/s along +y
+    xy = np.stack([np.zeros(n), y], 1)
+    ped = np.stack([2.0 - np.arange(n) * 0.2, y], 1)[:, None, :]     # closes along x only
+    f = classify(make_episode(xy, "collision", peds=ped, goal=(0.0, 5.0)))
+    assert f.name == "struck-moving"
+    assert f.evidence["robot_speed"] == pytest.approx(0.5)
+    assert f.evidence["robot_speed"] > failures.STOPPED_SPEED
+    assert abs(f.evidence["approach_speed"]) < 0.01
+
+
+# -- stuck ---------------------------------------------------------------------------------------
+
+
+def test_stalled_near_the_goal_beside_a_standing_person():
+    ped = np.tile([[[0.0, 1.0]]], (STALL, 1, 1))
+    f = classify(make_episode(standing(STALL), "deadlock", peds=ped, goal=(1.0, 0.0)))
+    assert f.name == "stalled-near-goal-person"
+    assert f.evidence["person"] == 0
+    assert f.evidence["person_gap"] == pytest.approx(0.4)
+    assert f.evidence["person_speed"] == pytest.approx(0.0)
+    assert f.evidence["goal_distance"] == pytest.approx(1.0)
+    assert f.evidence["net_displacement"] == pytest.approx(0.0)
+
+
+def test_stalled_beside_a_standing_person_far_from_the_goal():
+    ped = np.tile([[[0.0, 1.0]]], (STALL, 1, 1))
+    f = classify(make_episode(standing(STALL), "deadlock", peds=ped, goal=(5.0, 0.0)))
+    assert f.name == "stalled-beside-person"
+    assert f.evidence["goal_distance"] > f.evidence["docking_radius"]
+
+
+def test_a_walking_person_is_not_a_standing_one():
+    ped = np.stack([np.arange(STALL) * 0.2 - 6.0, np.ones(STALL)], 1)[:, None, :]
+    f = classify(make_episode(standing(STALL), "deadlock", peds=ped, goal=(5.0, 0.0)))
+    assert f.name == "stalled-open"
+    assert "person" not in f.evidence
+
+
+def _gap_grid(width):
+    """Free ground but two walls at |y| > width / 2 for |x| < 0.5: a passage ``width`` wide."""
+    h = 0.05
+    xs = -2.0 + (np.arange(160) + 0.5) * h
+    ys = -2.0 + (np.arange(80) + 0.5) * h
+    occupied = (np.abs(ys)[:, None] > width / 2) & (np.abs(xs)[None, :] < 0.5)
+    return OccupancyGrid(occupied, h, (-2.0, -2.0))
+
+
+def test_stalled_in_a_gap_reports_its_width_against_the_robot():
+    f = classify(make_episode(standing(STALL), "deadlock", grid=_gap_grid(0.8)))
+    assert f.name == "stalled-in-gap"
+    assert f.evidence["in_gap"] is True
+    assert f.evidence["gap_width"] == pytest.approx(0.8, abs=0.06)
+    assert f.evidence["robot_width"] == pytest.approx(2 * RADIUS)
+    assert f.evidence["gap_limit"] == pytest.approx(2 * RADIUS + 2 * failures.GAP_MARGIN)
+
+
+def test_a_wide_passage_is_not_a_gap():
+    f = classify(make_episode(standing(STALL), "deadlock", grid=_gap_grid(1.6)))
+    assert f.name == "stalled-open"
+    assert f.evidence["in_gap"] is False
+    assert f.evidence["gap_width"] > f.evidence["gap_limit"]
+
+
+def test_stalled_near_the_goal_alone():
+    f = classify(make_episode(standing(STALL), "timeout", goal=(1.5, 0.0)))
+    assert f.name == "stalled-near-goal"
+    assert f.outcome == "timeout"
+
+
+def test_going_back_and_forth_is_oscillating():
+    t = np.arange(STALL) * DT
+    xy = np.stack([0.3 * np.sin(math.pi * t), np.zeros(STALL)], 1)   # 2 s period
+    f = classify(make_episode(xy, "deadlock"))
+    assert f.name == "oscillating"
+    assert f.evidence["net_displacement"] < f.evidence["stuck_limit"]
+    assert f.evidence["path_in_window"] > failures.OSCILLATION_SHARE * f.evidence["stuck_limit"]
+    assert f.evidence["reversals"] >= failures.OSCILLATION_REVERSALS
+
+
+def test_still_making_way_when_the_time_ran_out_is_slow():
+    xy = np.stack([np.arange(STALL) * 0.06, np.zeros(STALL)], 1)     # 0.3 m/s
+    f = classify(make_episode(xy, "timeout", goal=(20.0, 0.0)))
+    assert f.name == "slow"
+    assert f.evidence["net_displacement"] == pytest.approx(3.0, abs=1e-6)
+    assert f.evidence["stuck_limit"] == pytest.approx(1.0)
+
+
+def test_circling_into_a_deadlock_is_wandering():
+    a = np.arange(STALL) * DT * 0.5                                   # 1 m/s on a 2 m circle
+    xy = np.stack([2 * np.cos(a), 2 * np.sin(a)], 1)
+    f = classify(make_episode(xy, "deadlock", goal=(10.0, 0.0)))
+    assert f.name == "wandering"
+    assert f.evidence["net_displacement"] >= f.evidence["stuck_limit"]
+
+
+def test_successes_and_missing_robots_are_refused():
+    ep = make_episode(standing(5), "success")
+    with pytest.raises(InputError, match="success"):
+        classify(ep)
+    with pytest.raises(InputError, match="robot 3"):
+        classify(make_episode(standing(5), "deadlock"), robot=3)
+
+
+def test_every_class_is_named_and_evidence_is_json():
+    f = classify(make_episode(standing(STALL), "deadlock", grid=_gap_grid(0.8)))
+    assert f.name in failures.CLASSES
+    json.dumps(f.to_dict())
+
+
+# -- keeping episodes and the command -------------------------------------------------------------
+
+
+def test_only_unsuccessful_episodes_are_kept(tmp_path):
+    assert keep_failure(make_episode(standing(5), "success"), tmp_path, "ok") is None
+    assert keep_failure(make_episode(standing(5), "deadlock"), None, "no-folder") is None
+    name = keep_failure(make_episode(standing(5), "deadlock"), tmp_path, "stuck")
+    assert name == "episodes/stuck.npz"
+    assert Episode.load(tmp_path / name).outcomes == ["deadlock"]
+
+
+def test_which_rows_are_unsuccessful():
+    assert unsuccessful({"outcome": "deadlock"}) and not unsuccessful({"outcome": "success"})
+    assert unsuccessful({"status": "ok", "outcomes": "success,timeout"})
+    assert not unsuccessful({"status": "ok", "outcomes": "success,success"})
+    assert unsuccessful({"status": "failed"})
+
+
+def _folder(tmp_path):
+    table = ResultTable(tmp_path, "barn", ("world",), {"benchmark": "barn"})
+    stuck = make_episode(standing(STALL), "deadlock", grid=_gap_grid(0.8))
+    hit = make_episode(standing(8), "collision", peds=np.stack(
+        [2.0 - np.arange(8) * 0.2, np.zeros(8)], 1)[:, None, :])
+    table.add({"world": 0, "outcome": "success", "episode_file": None})
+    table.add({"world": 1, "outcome": "deadlock",
+               "episode_file": keep_failure(stuck, tmp_path, "w1")})
+    table.add({"world": 2, "outcome": "collision",
+               "episode_file": keep_failure(hit, tmp_path, "w2")})
+    table.add({"world": 3, "outcome": "error", "message": "ValueError: boom"})
+    return tmp_path
+
+
+def test_the_folder_report_counts_each_class(tmp_path):
+    report = classify_folder(_folder(tmp_path))
+    assert report["runs"] == 4 and report["unsuccessful_runs"] == 3
+    assert report["counts"] == {"struck-stopped": 1, "stalled-in-gap": 1}
+    assert report["unclassified"] == 1
+    assert report["unclassified_runs"][0]["reason"] == "ValueError: boom"
+
+
+def test_the_command_writes_report_and_figures(tmp_path, capsys):
+    folder = _folder(tmp_path)
+    assert main(["failures", str(folder), "--figures", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "3 of 4 runs did not succeed" in out and "stalled-in-gap 1" in out
+    report = json.loads((folder / "failures.json").read_text())
+    assert report["counts"] == {"struck-stopped": 1, "stalled-in-gap": 1}
+    assert (folder / "failures-stalled-in-gap.png").stat().st_size > 10_000
+    assert (folder / "failures-struck-stopped.png").exists()
+    assert "| stalled-in-gap | 1 |" in (folder / "failures.md").read_text()
+
+
+def test_the_command_refuses_a_folder_without_a_table(tmp_path, capsys):
+    assert main(["failures", str(tmp_path)]) == 2
+    assert "no benchmark table" in capsys.readouterr().err
+    assert main(["failures", str(tmp_path / "missing")]) == 2
+    assert "not a folder" in capsys.readouterr().err
