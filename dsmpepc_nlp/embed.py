@@ -36,6 +36,7 @@ from .solve.nlp_global import (
     pack_parameters,
     parameter_shapes,
 )
+from .solve.settings import names as settings_names
 
 _TABLE = ("values at cell centres, flattened x-fastest (entry ``iy * table_cells + ix`` is "
           "column ix, row iy of the window, row 0 the lowest y); cells past the frame's valid "
@@ -63,7 +64,11 @@ PARAMETER_DOCS = {
     "map_table": f"(table_cells**2, 1): the map's signed distance [m], {_TABLE}.",
     "nav_frame": f"{_FRAME}; the navigation function's window (the map_frame when goal[2] is 1).",
     "nav_table": f"(table_cells**2, 1): the navigation function [m to the goal], {_TABLE}.",
-    "settings": "the configuration's numbers, from pack_parameters.",
+    "settings": "(n, 1): the configuration's numbers (weights, widths, limits, gains, dt, "
+                "temperatures, footprint circles), in the order of settings_names(config); "
+                "pack_parameters fills it from the cycle's configuration. A graph built for one "
+                "configuration serves every configuration of the same structure (step count, "
+                "circle count, the DS-MPEPC switches): change a number here, not the graph.",
 }
 """Meaning, units and layout of each parameter block, by name. A block added to
 :data:`PARAMETER_NAMES` after this was written is described by :func:`describe` as "see
@@ -77,4 +82,4 @@ def describe(name: str) -> str:
 
 __all__ = ["FAR", "FRAME_COLUMNS", "PARAMETER_DOCS", "PARAMETER_NAMES", "Cycle", "GraphSizes",
            "cost_function", "describe", "flat_cost", "flatten_parameters", "pack_parameters",
-           "parameter_shapes"]
+           "parameter_shapes", "settings_names"]

@@ -264,6 +264,11 @@ class ObservedPlanner:
     def reset(self) -> None:
         self.planner.reset()
 
+    def prepare(self, **kwargs):
+        """The wrapped planner's ``prepare`` (compile ahead), where it has one."""
+        prepare = getattr(self.planner, "prepare", None)
+        return prepare(**kwargs) if prepare is not None else None
+
     def plan(self, state, world, goal, **kwargs):
         self.crowd.observe_robot(state)
         return self.planner.plan(state, world, goal, **kwargs)

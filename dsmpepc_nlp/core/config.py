@@ -203,6 +203,15 @@ class CostConfig:
     """Width sigma_{1/TTC} of the inverse time-to-collision bells, 1/s (paper)."""
     s_ttg: float = 1e-3
     """Width sigma_{1/TTG} of the inverse time-to-goal bell, 1/s (paper)."""
+    sigma_static_from_map: bool = False
+    """Our extension, not the paper's (off in :meth:`PlannerConfig.paper`): with a map, the
+    static bell's width is the uncertainty of the distance the planner reads,
+    ``sqrt(resolution^2 / 12 + localisation_std^2)`` (the map's quantisation, a uniform error
+    over a cell, and the robot's localisation), instead of ``sigma_static``, a constant from
+    another robot's office map (docs/method.md section 3.2)."""
+    localisation_std: float = 0.03
+    """Standard deviation of the robot's position on the map, m (with
+    ``sigma_static_from_map``): a 2-D lidar's localisation on an indoor map (our choice)."""
     ttc_range: float = 8.0
     """Range of the static time-to-collision ray march, m: beyond it 1/TTC = 0 (our choice)."""
     ttg_along_nf: bool = False
@@ -228,12 +237,14 @@ class CostConfig:
             "s_ttc": positive,
             "s_ttg": positive,
             "ttc_range": positive,
+            "localisation_std": dict(low=0.0),
             "w_progress": dict(low=0.0),
             "w_action": dict(low=0.0),
             "w_terminal": dict(low=0.0),
         })
-        if not isinstance(self.ttg_along_nf, bool):
-            _fail("CostConfig", "ttg_along_nf", self.ttg_along_nf, "True or False")
+        for name in ("ttg_along_nf", "sigma_static_from_map"):
+            if not isinstance(getattr(self, name), bool):
+                _fail("CostConfig", name, getattr(self, name), "True or False")
         try:
             disabled = tuple(self.disabled) if not isinstance(self.disabled, str) else None
         except TypeError:
@@ -336,6 +347,30 @@ class PlannerConfig:
         for name in ("anticipatory_pc", "terminal_cost"):
             if not isinstance(getattr(self, name), bool):
                 _fail("PlannerConfig", name, getattr(self, name), "True or False")
+
+    @classmethod
+    def paper(cls, variant: str = "ds-mpepc", **changes) -> PlannerConfig:
+        """The paper's method and values and none of our extensions (docs/method.md section
+        8 lists them): ``variant`` one of :data:`VARIANTS`. The product's defaults
+        (``PlannerConfig()``) add what the benchmarks showed to help (README, "Defaults")."""
+        switches = VARIANTS.get(variant)
+        if switches is None:
+            raise InputError(f"variant = {variant!r}: must be one of {', '.join(VARIANTS)}")
+        cost = changes.pop("cost", CostConfig(sigma_static_from_map=False, ttg_along_nf=False))
+        return cls(anticipatory_pc=switches[0], terminal_cost=switches[1], cost=cost, **changes)
+
+    def for_map(self, resolution: float | None) -> PlannerConfig:
+        """This configuration as it plans on a map of ``resolution`` (m; None: no map): with
+        ``cost.sigma_static_from_map``, ``sigma_static`` becomes the map's uncertainty
+        ``sqrt(resolution^2 / 12 + localisation_std^2)``; otherwise itself. The one place that
+        formula lives: the exact cost, the cycle's kernel and the graph all read it from here."""
+        cost = self.cost
+        if not cost.sigma_static_from_map or resolution is None:
+            return self
+        sigma = math.sqrt(resolution * resolution / 12.0 + cost.localisation_std ** 2)
+        if sigma == cost.sigma_static:
+            return self
+        return dataclasses.replace(self, cost=dataclasses.replace(cost, sigma_static=sigma))
 
     @classmethod
     def mpepc(cls, **changes) -> PlannerConfig:

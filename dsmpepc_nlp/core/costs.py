@@ -315,6 +315,7 @@ def exact_geometry(trajectory: Trajectory, world, goal, config: PlannerConfig) -
     poses = trajectory.poses
     if poses.ndim == 2:
         raise InputError("exact_geometry takes a batch: index trajectories with [None]")
+    config = config.for_map(world.grid.resolution if world.grid is not None else None)
     n, n_poses = poses.shape[:2]
     goal = np.asarray(goal, dtype=float)
     speeds = _speeds_at_poses(trajectory.v)

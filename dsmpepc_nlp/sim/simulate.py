@@ -97,10 +97,13 @@ class _Loop:
         self.configs = [config if a.robot is None else dataclasses.replace(config, robot=a.robot)
                         for a in agents]
         self.planners = [planner_factory(c, solver) for c in self.configs]
-        for planner in self.planners:   # compile ahead: no cycle of an episode plans on a fallback
+        # Compile ahead: no cycle of an episode plans on a fallback. A robot never sees more
+        # dynamic objects than the others, the pedestrians and the parked robots.
+        objects = len(agents) - 1 + len(scenario.pedestrians) + len(scenario.parked)
+        for planner in self.planners:
             prepare = getattr(planner, "prepare", None)
             if prepare is not None:
-                prepare()
+                prepare(max_objects=objects)
         self.footprints = [np.array(c.robot.footprint) for c in self.configs]
         self.states = start_states(scenario, rng)  # noise first, then the free-space checks
         self.base_world = World(scenario.grid)

@@ -238,6 +238,7 @@ def _remove(path: Path) -> None:
         shutil.rmtree(path, ignore_errors=True)
     else:
         path.unlink(missing_ok=True)
+    path.with_name(path.name + ".lock").unlink(missing_ok=True)
 
 
 def prune(max_bytes: int = MAX_CACHE_BYTES, max_idle_days: float = MAX_IDLE_DAYS,

@@ -97,8 +97,12 @@ class Cycle:
 
     @classmethod
     def prepare(cls, state: RobotState, world, goal, config: PlannerConfig) -> Cycle:
-        """Derive the cycle's data from ``world`` once (predictions, navigation function)."""
+        """Derive the cycle's data from ``world`` once (predictions, navigation function).
+
+        ``config`` is taken as it plans on the world's map (:meth:`PlannerConfig.for_map`):
+        ``Cycle.config`` is what every evaluator of the cycle reads."""
         goal = np.asarray(goal, dtype=float)
+        config = config.for_map(world.grid.resolution if world.grid is not None else None)
         times = np.arange(config.horizon.n_steps + 1) * config.horizon.dt
         centers, radii, velocities, owner = world.stacked_obstacles()
         predicted = centers[None, :, :] + velocities[None, :, :] * times[:, None, None]

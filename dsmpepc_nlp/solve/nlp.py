@@ -115,11 +115,16 @@ class NlpSolver:
         while its library compiles in a child process."""
         return readiness(self.config, self.sizes_for(cycle), self.solver_config)
 
-    def prepare(self) -> float:
-        """Build (compile, or load) the problem of every object bucket now; seconds spent."""
+    def prepare(self, max_objects: int | None = None) -> float:
+        """Build (compile, or load) the problem of every object bucket a cycle may use now
+        (with ``max_objects``, the most dynamic objects a cycle can hold, only the buckets up
+        to the first that holds them); seconds spent."""
         started = time.perf_counter()
-        every = [dataclasses.replace(self.sizes, pose_objects=bucket)
-                 for bucket in self.solver_config.pose_object_buckets]
+        buckets = list(self.solver_config.pose_object_buckets)
+        if max_objects is not None:
+            first = next((i for i, b in enumerate(buckets) if b >= max_objects), len(buckets))
+            buckets = buckets[:first + 1]
+        every = [dataclasses.replace(self.sizes, pose_objects=bucket) for bucket in buckets]
         solvers.compile_missing([(self.config, sizes) for sizes in every], self.solver_config)
         for sizes in every:
             self._seen.add(solvers.problem(self.config, sizes, self.solver_config))

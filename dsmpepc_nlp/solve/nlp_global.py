@@ -370,7 +370,18 @@ def _symbolic(config, smoothing):
     return (q, *settings_block.symbolic(config, q, smoothing))
 
 
-def _pose_functions(config, sizes, smoothing):
+def _piece(name, inputs, outputs, fixed, positions):
+    """A SX piece of the graph; with ``fixed``, its inputs at ``positions`` (parameters: they
+    never depend on z) are marked not differentiable, so that a gradient in z does not carry
+    their adjoints through every call (the settings block alone made the gradient ~17 %
+    dearer; docs/nlp.md, "Pass 12")."""
+    if not fixed:
+        return ca.Function(name, inputs, outputs)
+    flags = [i not in positions for i in range(len(inputs))]
+    return ca.Function(name, inputs, outputs, {"is_diff_in": flags})
+
+
+def _pose_functions(config, sizes, smoothing, fixed=False):
     """SX pieces of one pose: where it reads the map table, and the map's geometry from the
     reads.
 
@@ -385,16 +396,16 @@ def _pose_functions(config, sizes, smoothing):
     frame = p["map_frame"]
     centres = _circle_centres(pose, config)
     uv, outside = _stencil_coordinates(centres, frame)
-    query = ca.Function("dsmpepc_pose_query", [pose, frame, q], [uv])
+    query = _piece("dsmpepc_pose_query", [pose, frame, q], [uv], fixed, (1, 2))
     d, gx, gy = _central(raw + outside, n_c, frame[2])
     static_d, static_inv = _static_geometry(pose, [speed], d, gx, gy, config, smoothing)
     inverse = static_inv[0] if config.anticipatory_pc else ca.SX(0)
-    geometry = ca.Function("dsmpepc_pose_geometry", [pose, speed, raw, frame, q],
-                           [static_d[0], inverse])
+    geometry = _piece("dsmpepc_pose_geometry", [pose, speed, raw, frame, q],
+                      [static_d[0], inverse], fixed, (3, 4))
     return query, geometry
 
 
-def _object_function(config, sizes, smoothing):
+def _object_function(config, sizes, smoothing, fixed=False):
     """``object_kept(mask, pose, speed, step, circles C_obj x 3, velocity 1 x 2, settings) ->
     1 - P_c`` of one dynamic object at pose ``step`` (``costs.collision_probability``), or
     exactly 1 without computing anything where ``mask`` is 0 (a CasADi conditional: the object
@@ -409,17 +420,18 @@ def _object_function(config, sizes, smoothing):
     kept = 1.0 - collision_probability(distance, inverse, config.cost.sigma_dynamic, config,
                                        smoothing, CASADI)
     inputs = [pose, speed, k, circles, velocity, q]
-    near = ca.Function("dsmpepc_object_kept", inputs, [kept])
+    near = _piece("dsmpepc_object_kept", inputs, [kept], fixed, (2, 3, 4, 5))
     # Exactly 1 with a zero derivative, written so that it reads every input: its adjoint is
     # then dense like the computation's, and the conditional's reverse mode writes it without
     # projecting a structurally zero one (that projection was ~8 % of a gradient, callgrind).
-    far = ca.Function("dsmpepc_object_far", inputs,
-                      [ca.fmax(1.0, -ca.fabs(ca.sum1(ca.vertcat(*(ca.vec(x) for x in inputs)))))])
+    far = _piece("dsmpepc_object_far", inputs,
+                 [ca.fmax(1.0, -ca.fabs(ca.sum1(ca.vertcat(*(ca.vec(x) for x in inputs)))))],
+                 fixed, (2, 3, 4, 5))
     # Index 0 (mask 0) is the far branch; any other index runs the default, the computation.
     return ca.Function.conditional("dsmpepc_object_if", [far], near)
 
 
-def _terminal_functions(config, sizes, smoothing):
+def _terminal_functions(config, sizes, smoothing, fixed=False):
     """``ray_query(end, map_frame, settings) -> uv`` (2 x MC) and ``terminal(end, raw 1 x MC,
     map_frame, circles, velocities, settings) -> 1/TTC`` at v_limit along the terminal
     heading."""
@@ -430,7 +442,7 @@ def _terminal_functions(config, sizes, smoothing):
     raw = ca.SX.sym("raw", 1, m * len(config.robot.footprint))
     points, along = _ray_points(end, config, sizes)
     uv, outside = _cell_coordinates(points, frame)
-    query = ca.Function("dsmpepc_ray_query", [end, frame, q], [uv])
+    query = _piece("dsmpepc_ray_query", [end, frame, q], [uv], fixed, (1, 2))
     speed = config.robot.v_limit
     gaps = raw + outside
     static = [_ray_inverse_ttc(gaps[:, c * m:(c + 1) * m] - radius, along, speed, smoothing)
@@ -439,8 +451,9 @@ def _terminal_functions(config, sizes, smoothing):
                                p["obstacle_circles"], p["obstacle_velocities"], config,
                                smoothing, sizes)
     inv = softmax_objects(ca.horzcat(*static, dyn), smoothing.inverse_time, CASADI)
-    terminal = ca.Function("dsmpepc_terminal", [end, raw, frame, p["obstacle_circles"],
-                                                p["obstacle_velocities"], q], [inv])
+    terminal = _piece("dsmpepc_terminal", [end, raw, frame, p["obstacle_circles"],
+                                           p["obstacle_velocities"], q], [inv], fixed,
+                      (2, 3, 4, 5))
     return query, terminal
 
 
@@ -451,7 +464,7 @@ def _nav_points(poses, frame):
     return ca.horzcat(poses[:2, :], *(end + res * ca.DM([dx, dy]) for dx, dy in _STENCIL[1:]))
 
 
-def _final_functions(config, sizes, smoothing):
+def _final_functions(config, sizes, smoothing, fixed=False):
     """``nav_query(poses, nav_frame) -> uv`` and ``assemble(poses, v, omega, goal, nav_frame,
     nav_raw, distance, inv_ttc, kept, inv_term, settings) -> (cost, *terms)`` through
     ``costs.assemble`` (``distance``, ``inv_ttc``: the map's, (N+1) x 1; ``kept``: the
@@ -463,7 +476,7 @@ def _final_functions(config, sizes, smoothing):
     vs, omegas = ca.SX.sym("v", n_steps), ca.SX.sym("omega", n_steps)
     goal, frame = p["goal"], p["nav_frame"]
     uv, outside = _cell_coordinates(_nav_points(poses, frame), frame)
-    query = ca.Function("dsmpepc_nav_query", [poses, frame], [uv])
+    query = _piece("dsmpepc_nav_query", [poses, frame], [uv], fixed, (1,))
     raw = ca.SX.sym("nav_raw", 1, n_steps + 5)
     values = raw + outside
     n = n_steps + 1
@@ -491,9 +504,9 @@ def _final_functions(config, sizes, smoothing):
     sigma = ca.DM.ones(n, 1) * config.cost.sigma_static
     total, terms, _ = assemble(distance, inverse, sigma, nf.T, vs, omegas, err, inv_ttg,
                                inv_term, config, smoothing, CASADI, kept=kept)
-    final = ca.Function("dsmpepc_assemble",
-                        [poses, vs, omegas, goal, frame, raw, distance, inverse, kept,
-                         inv_term, q], [total, *(terms[t] for t in TERM_NAMES)])
+    final = _piece("dsmpepc_assemble",
+                   [poses, vs, omegas, goal, frame, raw, distance, inverse, kept, inv_term, q],
+                   [total, *(terms[t] for t in TERM_NAMES)], fixed, (3, 4, 10))
     return query, final
 
 
@@ -503,7 +516,8 @@ def resolved_sizes(config: PlannerConfig, sizes: GraphSizes) -> GraphSizes:
     return dataclasses.replace(sizes, ray_samples=ray_samples(config, sizes))
 
 
-def build_cost_function(config: PlannerConfig, sizes: GraphSizes, smoothing=None) -> ca.Function:
+def build_cost_function(config: PlannerConfig, sizes: GraphSizes, smoothing=None,
+                        fixed_parameters: bool = False) -> ca.Function:
     """The smooth cost as a ``casadi.Function`` named ``dsmpepc_cost``.
 
     Inputs: ``z`` (4) and the blocks of :data:`PARAMETER_NAMES` (shapes from
@@ -515,19 +529,22 @@ def build_cost_function(config: PlannerConfig, sizes: GraphSizes, smoothing=None
 
     An MX graph of small SX functions (the rollout, one pose's geometry called N+1 times, the
     terminal ray, the assembly) and the table look-ups: each piece and its derivatives exist
-    once in generated code, so it compiles in seconds, not minutes.
+    once in generated code, so it compiles in seconds, not minutes. With ``fixed_parameters``
+    (the solvers' graph) derivatives exist in ``z`` alone: every parameter block is marked
+    not differentiable.
     """
     sizes = resolved_sizes(config, sizes)
+    fixed = fixed_parameters
     shapes = parameter_shapes(config, sizes)
     n_steps = config.horizon.n_steps
     z_sx, state_sx = ca.SX.sym("z", 4), ca.SX.sym("state", 5)
     q, sym_config, sym_smoothing = _symbolic(config, smoothing)
-    rollout = ca.Function("dsmpepc_rollout", [z_sx, state_sx, q],
-                          list(_rollout(z_sx, state_sx, sym_config, sym_smoothing)))
-    pose_query, pose_geometry = _pose_functions(config, sizes, smoothing)
-    object_kept = _object_function(config, sizes, smoothing)
-    ray_query, terminal = _terminal_functions(config, sizes, smoothing)
-    nav_query, final = _final_functions(config, sizes, smoothing)
+    rollout = _piece("dsmpepc_rollout", [z_sx, state_sx, q],
+                     list(_rollout(z_sx, state_sx, sym_config, sym_smoothing)), fixed, (1, 2))
+    pose_query, pose_geometry = _pose_functions(config, sizes, smoothing, fixed)
+    object_kept = _object_function(config, sizes, smoothing, fixed)
+    ray_query, terminal = _terminal_functions(config, sizes, smoothing, fixed)
+    nav_query, final = _final_functions(config, sizes, smoothing, fixed)
     lookup = table_lookup(sizes)
     z = ca.MX.sym("z", 4)
     p = {name: ca.MX.sym(name, *shape) for name, shape in shapes.items()}
@@ -703,8 +720,8 @@ def is_finite_parameters(params: dict) -> bool:
 
 def flat_cost(config: PlannerConfig, sizes: GraphSizes, smoothing=None) -> ca.Function:
     """The cost as ``(z, p) -> f`` with ``p`` the flat vector of :func:`flatten_parameters`
-    (what the solvers and the compiled code take)."""
-    cost = build_cost_function(config, sizes, smoothing)
+    (what the solvers and the compiled code take; derivatives in ``z`` alone)."""
+    cost = build_cost_function(config, sizes, smoothing, fixed_parameters=True)
     shapes = parameter_shapes(config, sizes)
     counts = [int(np.prod(shapes[n])) for n in PARAMETER_NAMES]
     z, p = ca.MX.sym("z", 4), ca.MX.sym("p", sum(counts))

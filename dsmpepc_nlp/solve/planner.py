@@ -140,15 +140,17 @@ class Planner:
         self._previous_target = None
         self._fallbacks, self._warned = 0, False
 
-    def prepare(self) -> dict:
+    def prepare(self, max_objects: int | None = None) -> dict:
         """Compile (or load) everything a plan may need, now: the NLP's problem of every object
-        bucket and the compiled exact evaluator. Call it before a control loop (simulations
-        and benchmarks do) so that no plan runs on a fallback while a library compiles.
+        bucket (up to the one that holds ``max_objects`` dynamic objects, when the caller knows
+        there are never more) and the compiled exact evaluator. Call it before a control loop
+        (simulations and benchmarks do) so that no plan runs on a fallback while a library
+        compiles; missing libraries compile in parallel child processes.
 
         Returns ``{"nlp_s": seconds, "exact_s": seconds}``.
         """
         started = time.perf_counter()
-        nlp_s = self.nlp.prepare() if self.nlp is not None else 0.0
+        nlp_s = self.nlp.prepare(max_objects) if self.nlp is not None else 0.0
         exact.wait_for_kernel()
         return {"nlp_s": nlp_s, "exact_s": time.perf_counter() - started - nlp_s}
 

@@ -7,7 +7,8 @@ so that changing any of them compiles nothing. What stays structural (and so in 
 :func:`structure`): the horizon's step count, the footprint's circle count, the two DS-MPEPC
 switches, ``ttg_along_nf``, the disabled terms, and the few values at which a formula takes
 another form (:data:`SPECIAL`: a smoothing temperature of 0 is the exact form; an infinite rate
-limit is no limit; ``lam = 2`` squares the curvature).
+limit is no limit; ``lam = 2`` squares the curvature; a footprint circle's offset of 0 leaves
+nothing to rotate).
 """
 
 from __future__ import annotations
@@ -60,6 +61,8 @@ def is_special(name: str, value) -> bool:
     """True where ``value`` of entry ``name`` is structure (see :data:`SPECIAL`)."""
     if name.startswith("smoothing."):
         return value == 0
+    if name.startswith("footprint.") and not name.endswith(".radius"):
+        return value == 0      # a circle on the body's axis or centre: no offset to rotate
     return value in SPECIAL.get(name, ())
 
 
