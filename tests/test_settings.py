@@ -30,7 +30,7 @@ def _other(config: PlannerConfig) -> PlannerConfig:
     return dataclasses.replace(
         config,
         robot=RobotConfig(v_limit=0.8, omega_limit=1.2, accel_limit=2.0, alpha_limit=2.5,
-                          footprint=((0.05, -0.02, 0.27),)),
+                          footprint=((0.0, 0.0, 0.27),)),
         control_law=ControlLawConfig(k1=1.2, k2=2.5, beta=0.3, lam=2.0, r_thresh=1.0),
         horizon=HorizonConfig(dt=0.25, n_steps=config.horizon.n_steps),
         cost=CostConfig(sigma_static=0.05, sigma_dynamic=0.25, c_heading=0.3, c_v=0.15,
@@ -60,6 +60,11 @@ def test_every_number_is_a_parameter_not_structure():
     assert settings.structure(base) == settings.structure(other)
     assert structure_key(base, SIZES) == structure_key(other, SIZES)
     assert not np.array_equal(settings.values(base), settings.values(other))
+    # A circle's offsets are parameters too, once off the centre (0 is structure: nothing to
+    # rotate).
+    shifted = [dataclasses.replace(base, robot=RobotConfig(footprint=(circle,)))
+               for circle in ((0.05, -0.02, 0.27), (0.1, 0.03, 0.25))]
+    assert structure_key(*shifted[:1], SIZES) == structure_key(shifted[1], SIZES)
     # Every float field of the sections the graph reads is in the block (derived, not listed).
     for section in settings.SECTIONS:
         for field in dataclasses.fields(getattr(base, section)):
@@ -69,19 +74,35 @@ def test_every_number_is_a_parameter_not_structure():
 
 @pytest.mark.parametrize("change", [
     dict(horizon=HorizonConfig(n_steps=20)),
-    dict(anticipatory_pc=False),
-    dict(terminal_cost=False),
     dict(robot=RobotConfig(footprint=((0.2, 0, 0.3), (-0.2, 0, 0.3)))),
     dict(robot=RobotConfig(accel_limit=math.inf)),
     dict(control_law=ControlLawConfig(lam=3.0)),
     dict(smoothing=SmoothingConfig.exact()),
     dict(cost=CostConfig(disabled=("heading",))),
     dict(cost=CostConfig(ttg_along_nf=True)),
-], ids=["steps", "pc", "terminal", "circles", "accel-inf", "lam", "exact", "disabled", "ttg-nf"])
+], ids=["steps", "circles", "accel-inf", "lam", "exact", "disabled", "ttg-nf"])
 def test_structure_changes_the_key(change):
     base = PlannerConfig()
     assert structure_key(base, SIZES) != structure_key(dataclasses.replace(base, **change),
                                                        SIZES)
+
+
+@pytest.mark.parametrize("variant", ["mpepc", "pc-only", "terminal-only"])
+def test_the_switches_are_settings_and_the_variants_share_a_graph(variant):
+    """MPEPC and the ablations are DS-MPEPC's graph with a switch's 0: the same key, and the
+    graph built for DS-MPEPC gives each variant's own cost (its own graph's) to the bit."""
+    ds, other = PlannerConfig(), PlannerConfig.variant(variant)
+    assert structure_key(ds, SIZES) == structure_key(other, SIZES)
+    cycle, _ = _scene(other)
+    z = np.random.default_rng(3).uniform(other.z_lower, other.z_upper, (30, 4))
+    shared = _evaluate(g.build_cost_function(ds, SIZES), cycle, SIZES, z)
+    own = _evaluate(g.build_cost_function(other, SIZES), cycle, SIZES, z)
+    for name in shared:
+        np.testing.assert_array_equal(shared[name], own[name])
+    ds_cost = _evaluate(g.build_cost_function(ds, SIZES), _scene(ds)[0], SIZES, z)["cost"]
+    assert not np.array_equal(ds_cost, shared["cost"])
+    if not other.terminal_cost:
+        assert np.all(shared["terminal"] == 0.0)
 
 
 def test_a_graph_built_for_one_configuration_serves_another():

@@ -566,7 +566,7 @@ def build_cost_function(config: PlannerConfig, sizes: GraphSizes, smoothing=None
                                              p["pose_velocities"][j, :], settings)
         kept.append(product)
     inv_term = ca.MX(0)
-    if config.terminal_cost:
+    if sym_config.terminal_cost:        # always: MPEPC's is the switch's 0 (settings.py)
         end = poses[:, -1]
         raw = _lookups(lookup, ray_query(end, p["map_frame"], settings), p["map_table"])
         inv_term = terminal(end, raw, p["map_frame"], *objects, settings)

@@ -3,9 +3,13 @@
 A compiled library is keyed by the graph's structure, never by a number a user may tune: the
 weights, widths, limits, gains, step length, footprint circles and smoothing temperatures enter
 the graph as the ``settings`` parameter block (bound once per cycle with the rest of the world),
-so that changing any of them compiles nothing. What stays structural (and so in the key,
-:func:`structure`): the horizon's step count, the footprint's circle count, the two DS-MPEPC
-switches, ``ttg_along_nf``, the disabled terms, and the few values at which a formula takes
+so that changing any of them compiles nothing. The two DS-MPEPC switches are 0/1 entries too
+(``switch.anticipatory_pc`` scales ``a``, ``switch.terminal_cost`` the terminal weight: at 1 the
+same numbers as the switch's form, at 0 exactly MPEPC's), so MPEPC, DS-MPEPC and the ablations
+share one library; the graph then always computes the anticipatory factor and the terminal ray,
+which MPEPC multiplies by 0. What stays structural (and so in the key, :func:`structure`): the
+horizon's step count, the footprint's circle count, ``ttg_along_nf``, the disabled terms, and
+the few values at which a formula takes
 another form (:data:`SPECIAL`: a smoothing temperature of 0 is the exact form; an infinite rate
 limit is no limit; ``lam = 2`` squares the curvature; a footprint circle's offset of 0 leaves
 nothing to rotate).
@@ -31,6 +35,9 @@ temperature also has one: 0, the exact form)."""
 
 FOOTPRINT = ("cx", "cy", "radius")
 
+SWITCHES = ("anticipatory_pc", "terminal_cost")
+"""The DS-MPEPC switches, entries ``switch.NAME`` (0 or 1) of the block."""
+
 
 def names(config: PlannerConfig) -> tuple:
     """The settings block's entries, in order: ``section.field`` for every float field of
@@ -42,11 +49,14 @@ def names(config: PlannerConfig) -> tuple:
                 out.append(f"{section}.{field.name}")
     for i in range(len(config.robot.footprint)):
         out.extend(f"footprint.{i}.{part}" for part in FOOTPRINT)
+    out.extend(f"switch.{name}" for name in SWITCHES)
     return tuple(out)
 
 
 def _value(config: PlannerConfig, name: str) -> float:
     head, *rest = name.split(".")
+    if head == "switch":
+        return float(getattr(config, rest[0]))
     if head == "footprint":
         return config.robot.footprint[int(rest[0])][FOOTPRINT.index(rest[1])]
     return getattr(getattr(config, head), rest[0])
@@ -81,8 +91,8 @@ def structure(config: PlannerConfig, smoothing: SmoothingConfig | None = None) -
                     and (own or not name.startswith("smoothing.")))
     baked = None if own else dataclasses.astuple(smoothing)
     cost = config.cost
-    return ("settings-v1", names(config), config.horizon.n_steps, config.anticipatory_pc,
-            config.terminal_cost, cost.ttg_along_nf, tuple(cost.disabled), special, baked)
+    return ("settings-v2", names(config), config.horizon.n_steps, cost.ttg_along_nf,
+            tuple(cost.disabled), special, baked)
 
 
 def symbolic(config: PlannerConfig, settings, smoothing: SmoothingConfig | None = None):
@@ -110,7 +120,15 @@ def symbolic(config: PlannerConfig, settings, smoothing: SmoothingConfig | None 
     footprint = tuple(tuple(settings[index[f"footprint.{i}.{part}"]] for part in FOOTPRINT)
                       for i in range(len(config.robot.footprint)))
     object.__setattr__(sections["robot"], "footprint", footprint)
+    # The switches as factors: on, the switch's own numbers (a * 1 and w * 1 are a and w to
+    # the bit); off, the factor 1 - 0 * a * e = 1 and the terminal term 0 * raw = 0 exactly.
+    cost = sections["cost"]
+    object.__setattr__(cost, "a", cost.a * settings[index["switch.anticipatory_pc"]])
+    object.__setattr__(cost, "w_terminal",
+                       cost.w_terminal * settings[index["switch.terminal_cost"]])
     mirror = copy.copy(config)
+    object.__setattr__(mirror, "anticipatory_pc", True)
+    object.__setattr__(mirror, "terminal_cost", True)
     for section, value in sections.items():
         object.__setattr__(mirror, section, value)
     object.__setattr__(mirror, "bounds", None)
