@@ -229,3 +229,15 @@ def test_problem_binds_the_settings_and_the_difference_steps():
     params = g.pack_parameters(cycle, SIZES)
     expected = float(cost(z, *(params[n] for n in g.PARAMETER_NAMES))[0])
     assert problem.f(z) == pytest.approx(expected, rel=1e-12, abs=1e-12)
+
+
+def test_long_generated_functions_are_compiled_lighter():
+    from dsmpepc_nlp.solve import csource
+
+    head = "static int casadi_f{}(const casadi_real** arg, casadi_real** res) {{\n"
+    short = head.format(1) + "  a=1;\n" * 3 + "}\n"
+    long = head.format(2) + "  a=1;\n" * 12 + "}\n"
+    out = csource.lighten(short + long, lines=10)
+    assert out.count('optimize("O1")') == 1
+    assert out.index('optimize("O1")') > out.index("casadi_f1") and out.endswith(long)
+    assert csource.lighten(short + long, lines=100) == short + long
