@@ -38,7 +38,9 @@ def test_every_block_is_documented_with_its_packed_shape():
             assert stated in (f"({rows}, {cols})", f"({rows},)",
                               "(table_cells**2, 1)", "(max_objects * circles_per_object, 3)",
                               "(max_objects, 2)", "(pose_objects * circles_per_object, 3)",
-                              "(pose_objects, 2)", "(n_steps + 1, pose_objects)", "(5,)"), name
+                              "(pose_objects, 2)", "(n_steps + 1, pose_objects)", "(5,)",
+                              "(n_settings, 1)"), name
+    assert shapes["settings"] == (len(embed.settings_names(CONFIG)), 1)
 
 
 @pytest.mark.parametrize(("with_map", "flag"), [(True, 0.0), (False, 1.0)])
