@@ -65,8 +65,8 @@ PARAMETER_DOCS = {
     "nav_frame": f"{_FRAME}; the navigation function's window (the map_frame when goal[2] is 1).",
     "nav_table": f"(table_cells**2, 1): the navigation function [m to the goal], {_TABLE}.",
     "settings": "(n_settings, 1), n_settings = len(settings_names(config)): the "
-                "configuration's numbers (weights, widths, limits, gains, dt, temperatures, footprint circles, the DS-MPEPC "
-                "switches as 0/1), in the order of settings_names(config); "
+                "configuration's numbers (weights, widths, limits, gains, dt, temperatures, "
+                "footprint circles, the DS-MPEPC switches as 0/1), in the order of settings_names(config); "
                 "pack_parameters fills it from the cycle's configuration. A graph built for one "
                 "configuration serves every configuration of the same structure (step count, "
                 "circle count, the DS-MPEPC switches): change a number here, not the graph.",
