@@ -64,12 +64,13 @@ PARAMETER_DOCS = {
     "map_table": f"(table_cells**2, 1): the map's signed distance [m], {_TABLE}.",
     "nav_frame": f"{_FRAME}; the navigation function's window (the map_frame when goal[2] is 1).",
     "nav_table": f"(table_cells**2, 1): the navigation function [m to the goal], {_TABLE}.",
-    "settings": "(n_settings, 1), n_settings = len(settings_names(config)): the "
-                "configuration's numbers (weights, widths, limits, gains, dt, temperatures, "
-                "footprint circles, the DS-MPEPC switches as 0/1), in the order of settings_names(config); "
-                "pack_parameters fills it from the cycle's configuration. A graph built for one "
-                "configuration serves every configuration of the same structure (step count, "
-                "circle count, the DS-MPEPC switches): change a number here, not the graph.",
+    "settings": ("(n_settings, 1), n_settings = len(settings_names(config)): the "
+                 "configuration's numbers (weights, widths, limits, gains, dt, temperatures, "
+                 "footprint circles, the DS-MPEPC switches as 0/1), in the order of "
+                 "settings_names(config); pack_parameters fills it from the cycle's "
+                 "configuration. A graph built for one configuration serves every "
+                 "configuration of the same structure (step count, circle count): change a "
+                 "number here, not the graph."),
 }
 """Meaning, units and layout of each parameter block, by name. A block added to
 :data:`PARAMETER_NAMES` after this was written is described by :func:`describe` as "see
