@@ -300,7 +300,10 @@ def cmd_build(args) -> int:
     if getattr(args, "nlp", False):     # the C compiles run in child processes meanwhile
         from .solve.solvers import build as build_nlp
 
-        worker = threading.Thread(target=lambda: nlp.update(build_nlp()), daemon=True)
+        robots = {a.robot for name in builtin_names()
+                  for a in load_scenario(name).agents if a.robot is not None}
+        worker = threading.Thread(target=lambda: nlp.update(build_nlp(robots=sorted(
+            robots, key=repr))), daemon=True)
         worker.start()
     result = build_exact()
     if not result["compiled"]:

@@ -14,6 +14,7 @@ every z, so there is no re-linearisation: one solve per start.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 
@@ -119,8 +120,11 @@ class NewtonSolver:
                            **counts)
 
 
-def build(variants=None, solver: SolverConfig | None = None, workers: int | None = None) -> dict:
-    """Compile (or load) the graph of every built-in variant and object bucket ahead of use.
+def build(variants=None, solver: SolverConfig | None = None, workers: int | None = None,
+          robots=()) -> dict:
+    """Compile (or load) the graph of every built-in variant and object bucket ahead of use,
+    for the default robot and each of ``robots`` (``RobotConfig``: the built-in scenarios'
+    bodies, passed by the command line).
 
     The libraries missing from the cache compile in up to ``workers`` child processes at once
     (default: the machine's cores, at most one per 1.5 GB of memory: a compile's ``cc1`` peaks
@@ -134,8 +138,11 @@ def build(variants=None, solver: SolverConfig | None = None, workers: int | None
     """
     solver = SolverConfig() if solver is None else solver
     started = time.perf_counter()
-    wanted = [(PlannerConfig.variant(name), nlp_global.GraphSizes(pose_objects=bucket))
-              for name in (VARIANTS if variants is None else variants)
+    configs = [PlannerConfig.variant(name) for name in (VARIANTS if variants is None
+                                                         else variants)]
+    configs += [dataclasses.replace(config, robot=robot) for robot in robots
+                for config in configs[:1]]      # one variant: they share a structure
+    wanted = [(config, nlp_global.GraphSizes(pose_objects=bucket)) for config in configs
               for bucket in solver.pose_object_buckets]
     libraries, missing = compile_missing(wanted, solver, workers)
     built = [problem(config, sizes, solver) for config, sizes in wanted]
