@@ -229,7 +229,10 @@ def build_parser() -> argparse.ArgumentParser:
                        "configurations into the user cache folder")
     p.add_argument("--nlp", action="store_true",
                    help="also the NLP's compiled graph for the built-in variants and object "
-                        "buckets (about 30 s each the first time)")
+                        "buckets (about 1 minute on 2 cores the first time)")
+    p.add_argument("--scenario-robots", action="store_true",
+                   help="with --nlp, also the robot bodies of the built-in scenarios (the "
+                        "0.6 x 0.4 m two-circle robot: about 2.5 more minutes)")
     p.set_defaults(func=cmd_build)
 
     p = sub.add_parser("cache", help="what is compiled and cached (entries, size, last use); "
@@ -300,7 +303,7 @@ def cmd_build(args) -> int:
     if getattr(args, "nlp", False):     # the C compiles run in child processes meanwhile
         from .solve.solvers import build as build_nlp
 
-        robots = {a.robot for name in builtin_names()
+        robots = {a.robot for name in builtin_names() if args.scenario_robots
                   for a in load_scenario(name).agents if a.robot is not None}
         worker = threading.Thread(target=lambda: nlp.update(build_nlp(robots=sorted(
             robots, key=repr))), daemon=True)
