@@ -22,8 +22,9 @@ from pathlib import Path
 import numpy as np
 
 from .bench import commands, failure_report
+from .bench.params import PRESETS, preset_config
 from .core import options
-from .core.config import VARIANTS, PlannerConfig
+from .core.config import VARIANTS
 from .core.errors import InputError
 from .core.jsonio import json_clean
 from .core.progress import EpisodeProgress
@@ -62,9 +63,9 @@ def _sample_cycles(scenario, config, count):
 
 def run_one(scenario, variant: str, solver_name: str, seed: int, out: Path, *,
             animate: bool = False, sample_cycles: int = DEFAULT_SAMPLE_CYCLES,
-            figure: bool = True) -> dict:
+            figure: bool = True, preset: str = "product") -> dict:
     """Simulate one scenario with one variant; write the episode and figures; return a summary."""
-    config = PlannerConfig.variant(variant)
+    config = preset_config(preset, variant)
     solver = commands.solver_config(solver_name)
     progress = EpisodeProgress(f"{scenario.name} {variant} {solver_name}")
     started = time.perf_counter()
@@ -135,7 +136,7 @@ def cmd_list(args) -> int:
 def cmd_run(args) -> int:
     scenario = load_scenario(args.scenario)
     summary = run_one(scenario, args.variant, args.solver, args.seed, Path(args.out),
-                      animate=args.animate, sample_cycles=args.samples)
+                      animate=args.animate, sample_cycles=args.samples, preset=args.preset)
     if args.panels is not None:
         summary["files"]["panels"] = str(_cost_panels(summary["_episode"], args.panels,
                                                       Path(args.out)))
@@ -171,7 +172,7 @@ def cmd_compare(args) -> int:
         raise UsageError(f"--variants: {' '.join(variants)} repeats a variant")
     out = Path(args.out)
     results = {v: run_one(scenario, v, args.solver, args.seed, out, figure=False,
-                          sample_cycles=0) for v in variants}
+                          sample_cycles=0, preset=args.preset) for v in variants}
     figure = out / f"{scenario.name}-compare-{'-'.join(variants)}-{args.solver}-seed{args.seed}.png"
     figures().compare_figure({v: r["_episode"] for v, r in results.items()}, path=figure)
     if args.json:
@@ -194,6 +195,9 @@ def _scenario_options(p, *, variant=True):
     p.add_argument("--solver", choices=SOLVERS, default="nlp",
                    help="nlp (IPOPT, default), fast (trust-region Newton) or sampling")
     p.add_argument("--seed", type=options.seed, default=0, help="seed of the start perturbations")
+    p.add_argument("--preset", choices=PRESETS, default="product",
+                   help="product (the package's defaults) or paper (the paper's values, none "
+                        "of our extensions; README, 'Defaults')")
     p.add_argument("--out", default="out", help="folder for episodes and figures")
     p.add_argument("--json", action="store_true", help="print JSON on stdout")
 

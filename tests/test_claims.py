@@ -1,6 +1,7 @@
 """The paper's claims on the built-in scenarios (slow: closed-loop runs of whole scenarios).
 
-Identical parameters except the two DS-MPEPC switches (``PlannerConfig.variant``). The solver
+Identical parameters except the two DS-MPEPC switches (``PlannerConfig.paper``: the paper's
+values, none of our extensions). The solver
 is ``nlp`` (IPOPT) unless the environment variable ``DSMPEPC_CLAIMS_SOLVER`` names another
 (``sampling``, ``fast``). Seed 0 throughout. Each test asserts the paper's claim as stated;
 the claim-map tests at the end assert what ``dsmpepc claims`` found instead (sampler only).
@@ -22,7 +23,7 @@ SOLVER = os.environ.get("DSMPEPC_CLAIMS_SOLVER", "nlp")
 
 
 def run(name, variant):
-    episode = simulate(load_scenario(name), PlannerConfig.variant(variant),
+    episode = simulate(load_scenario(name), PlannerConfig.paper(variant),
                        SolverConfig.named(SOLVER), np.random.default_rng(0))
     print(f"{name} {variant} {SOLVER}: {episode.outcomes} at {episode.outcome_times}")
     return episode
@@ -90,7 +91,7 @@ def test_the_claim_map_cell(family, x, y, expected, tmp_path):
     """The cell's outcome per variant, as the full claim map found it."""
     scenario = load_scenario(families.save(family, x, y, tmp_path))
     for variant, outcome in expected.items():
-        episode = simulate(scenario, PlannerConfig.variant(variant), SolverConfig.sampling(),
+        episode = simulate(scenario, PlannerConfig.paper(variant), SolverConfig.sampling(),
                            np.random.default_rng(0), record_trajectories=False)
         print(f"{scenario.name} {variant} sampling: {episode.outcomes}")
         assert episode.outcomes == [outcome] * episode.n_robots, (variant, episode.outcomes)

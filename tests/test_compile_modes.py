@@ -95,8 +95,9 @@ def test_static_uncertainty_from_the_map():
     expected = math.sqrt(0.05 ** 2 / 12 + 0.03 ** 2)
     assert on.for_map(0.05).cost.sigma_static == pytest.approx(expected, rel=1e-15)
     assert on.for_map(None) is on                          # no map: the configured value
-    off = PlannerConfig()
+    off = PlannerConfig.paper()
     assert off.for_map(0.05) is off
+    assert PlannerConfig().cost.sigma_static_from_map      # the product's default
     # Every evaluator of a cycle reads the derived value: the cycle's configuration, the
     # kernel's parameter vector and the graph's settings block.
     world = World(_grid(0.05))
@@ -120,11 +121,12 @@ def test_the_exact_cost_reads_the_derived_uncertainty():
     z = np.array([[1.0, 0.0, 0.0, 0.5], [1.0, 0.6, 0.0, 0.5]])
     on = PlannerConfig(cost=CostConfig(sigma_static_from_map=True))
     by_hand = dataclasses.replace(PlannerConfig(), cost=CostConfig(
-        sigma_static=on.for_map(0.05).cost.sigma_static))
+        sigma_static=on.for_map(0.05).cost.sigma_static, sigma_static_from_map=False))
     a = evaluate(rollout(z, state, on), world, goal, on).total
     b = evaluate(rollout(z, state, by_hand), world, goal, by_hand).total
     np.testing.assert_array_equal(a, b)
-    c = evaluate(rollout(z, state, PlannerConfig()), world, goal, PlannerConfig()).total
+    paper = PlannerConfig.paper()
+    c = evaluate(rollout(z, state, paper), world, goal, paper).total
     assert not np.array_equal(a, c)
 
 

@@ -59,9 +59,13 @@ class ClaimSettings:
     """Samples per plan of the sampling solver (None: SolverConfig's)."""
     duration: float | None = None
     """Cap on every cell's duration, s (None: the family's own)."""
+    preset: str = "paper"
+    """The claim map tests the paper's claims: its values, none of our extensions (``--param``
+    turns one on, e.g. ``sigma_static_from_map=1``)."""
 
     def meta(self) -> dict:
-        return {"benchmark": "claims", "n_samples": self.n_samples, "duration": self.duration}
+        return {"benchmark": "claims", "n_samples": self.n_samples, "duration": self.duration,
+                "preset": self.preset}
 
 
 def run_cell(cell: tuple, variant: str, solver: str, seed: int, path: str,
@@ -72,7 +76,7 @@ def run_cell(cell: tuple, variant: str, solver: str, seed: int, path: str,
     name, x, y = cell
     family = families.family(name)
     sweep_settings = SweepSettings(variant=variant, solver=solver, n_samples=settings.n_samples,
-                                   duration=settings.duration)
+                                   duration=settings.duration, preset=settings.preset)
     row = run_one({"params": dict(params or {}), "variant": variant, "scenario": path,
                    "seed": int(seed)}, sweep_settings)
     row["params"] = row.pop("key")
@@ -123,7 +127,7 @@ def run_claims(cells, variants, solvers, seeds, settings: ClaimSettings, out_dir
     grid = settings_grid(params)
     for setting in grid:  # a bad value fails here, not in every run
         for variant in variants:
-            configure(setting, variant)
+            configure(setting, variant, settings.preset)
     out = Path(out_dir)
     paths = {cell: str(families.save(*cell, out / "scenarios")) for cell in cells}
     meta = dict(settings.meta(), variants=list(variants), solvers=list(solvers),

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core import options
-from ..core.config import VARIANTS, PlannerConfig, SolverConfig
+from ..core.config import VARIANTS, SolverConfig
 from ..core.errors import InputError
 from ..core.jsonio import json_clean
 from ..core.progress import EpisodeProgress, say
@@ -31,7 +31,7 @@ from ..sim.simulate import simulate
 from ..viz import figures
 from . import barn, claims, crowdnav, crowds, sweep
 from .crosscheck import crosscheck
-from .params import parse_ipopt_options, parse_params
+from .params import parse_ipopt_options, parse_params, preset_config
 from .results import parse_indices
 from .summary import fmt, summarised, summary_text  # noqa: F401 (summary_text re-exported)
 from .timing import run_bench
@@ -68,7 +68,7 @@ def run_crosscheck(args) -> int:
     if args.solver == "sampling":
         raise InputError("crosscheck --solver: must be nlp or fast (sampling is the reference)")
     scenario = load_scenario(args.scenario)
-    config = PlannerConfig.variant(args.variant)
+    config = preset_config(args.preset, args.variant)
     solver = solver_config(args.solver)
     progress = EpisodeProgress(f"{scenario.name} {args.variant} episode (sampling)")
     episode = simulate(scenario, config, SolverConfig.sampling(), np.random.default_rng(args.seed),

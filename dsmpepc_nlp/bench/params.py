@@ -55,9 +55,22 @@ def parse_params(specs) -> dict:
     return params
 
 
-def configure(params: dict, variant: str) -> PlannerConfig:
-    """The variant's configuration with the parameters replaced (validated by the config)."""
-    config = PlannerConfig.variant(variant)
+PRESETS = ("product", "paper")
+"""``product``: the package's defaults (``PlannerConfig.variant``); ``paper``: the paper's values
+and none of our extensions (``PlannerConfig.paper``)."""
+
+
+def preset_config(preset: str, variant: str) -> PlannerConfig:
+    """The configuration of ``variant`` under ``preset`` (one of :data:`PRESETS`)."""
+    if preset not in PRESETS:
+        raise InputError(f"--preset {preset!r}: must be one of {', '.join(PRESETS)}")
+    return PlannerConfig.paper(variant) if preset == "paper" else PlannerConfig.variant(variant)
+
+
+def configure(params: dict, variant: str, preset: str = "product") -> PlannerConfig:
+    """The variant's configuration under ``preset`` with the parameters replaced (validated by
+    the config)."""
+    config = preset_config(preset, variant)
     changes: dict = {}
     for name, value in params.items():
         section, field = _resolve_name(name)

@@ -56,11 +56,13 @@ class SweepSettings:
     """Cap on every scenario's duration, s (None: the scenario's own)."""
     start_noise: float | None = None
     """Start-position noise (m, std) replacing the scenario's own, so seeds differ (None: keep)."""
+    preset: str = "product"
+    """``product`` or ``paper`` (:data:`~dsmpepc_nlp.bench.params.PRESETS`)."""
 
     def meta(self) -> dict:
         return {"benchmark": "sweep", "variant": self.variant, "solver": self.solver,
                 "n_samples": self.n_samples, "duration": self.duration,
-                "start_noise": self.start_noise}
+                "start_noise": self.start_noise, "preset": self.preset}
 
 
 def _key_text(params: dict) -> str:
@@ -77,7 +79,8 @@ def run_one(run: dict, settings: SweepSettings, out_dir=None) -> dict:
     started = time.perf_counter()
     try:
         variant = run.get("variant", settings.variant)
-        config = configure(run["params"], "ds-mpepc" if variant == "orca" else variant)
+        config = configure(run["params"], "ds-mpepc" if variant == "orca" else variant,
+                           settings.preset)
         scenario = load_scenario(run["scenario"])
         if settings.duration is not None:
             scenario = dataclasses.replace(scenario,

@@ -203,12 +203,13 @@ class CostConfig:
     """Width sigma_{1/TTC} of the inverse time-to-collision bells, 1/s (paper)."""
     s_ttg: float = 1e-3
     """Width sigma_{1/TTG} of the inverse time-to-goal bell, 1/s (paper)."""
-    sigma_static_from_map: bool = False
-    """Our extension, not the paper's (off in :meth:`PlannerConfig.paper`): with a map, the
-    static bell's width is the uncertainty of the distance the planner reads,
+    sigma_static_from_map: bool = True
+    """Our extension, not the paper's (on by default, off in :meth:`PlannerConfig.paper`): with
+    a map, the static bell's width is the uncertainty of the distance the planner reads,
     ``sqrt(resolution^2 / 12 + localisation_std^2)`` (the map's quantisation, a uniform error
     over a cell, and the robot's localisation), instead of ``sigma_static``, a constant from
-    another robot's office map (docs/method.md section 3.2)."""
+    another robot's office map (docs/method.md section 3.2). BARN's 300 worlds: success 0.66 ->
+    0.98, no collision (docs/results.md)."""
     localisation_std: float = 0.03
     """Standard deviation of the robot's position on the map, m (with
     ``sigma_static_from_map``): a 2-D lidar's localisation on an indoor map (our choice)."""
