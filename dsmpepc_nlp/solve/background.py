@@ -51,8 +51,11 @@ def state(key) -> tuple:
     elapsed = time.monotonic() - started
     if code is None:
         return "running", elapsed
+    tail = ""
+    if child.stderr is not None and not child.stderr.closed:
+        tail = child.stderr.read().decode(errors="replace")[-300:]
+        child.stderr.close()
     if code != 0:
-        tail = child.stderr.read().decode(errors="replace")[-300:] if child.stderr else ""
         warn_once(f"background-{key}", f"compiling the NLP in the background failed ({tail}): "
                   "the planner builds it in its own process")
         return "failed", elapsed
