@@ -150,6 +150,7 @@ def readiness(config: PlannerConfig, sizes, solver: SolverConfig) -> tuple:
         return True, ""
     key = library_key(config, sizes, solver)
     if compiled.is_cached(key):
+        background.state(key)      # reaps a child that compiled it, closes its pipe
         return True, ""
     status, seconds = background.state(key)
     if status in ("done", "failed"):
