@@ -123,3 +123,25 @@ def test_a_colour_png_averages_its_channels_and_leaves_alpha_out(tmp_path):
     np.testing.assert_array_equal(grid.occupied, [[False, True, True]])
     grid = OccupancyGrid.from_yaml(write_png_map(tmp_path, rgba, "RGBA", occupied_thresh=0.7))
     np.testing.assert_array_equal(grid.occupied, [[False, True, False]])
+
+
+def test_a_misspelt_map_field_is_named_with_a_did_you_mean(tmp_path):
+    from dsmpepc_nlp.core.mapfile import read_map, write_map
+
+    occupied = np.zeros((4, 5), dtype=bool)
+    occupied[0, 0] = True
+    write_map(tmp_path / "m.yaml", occupied, 0.1, (0.0, 0.0))
+    text = (tmp_path / "m.yaml").read_text()
+    (tmp_path / "typo.yaml").write_text(text.replace("negate:", "negat:"))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got, resolution, _ = read_map(tmp_path / "typo.yaml")
+    assert resolution == 0.1 and got.shape == occupied.shape
+    assert any("'negat'" in str(w.message) and "did you mean 'negate'" in str(w.message)
+               for w in caught)
+    (tmp_path / "bad.yaml").write_text(text.replace("resolution:", "resolutoin:"))
+    with pytest.raises(InputError, match="missing field 'resolution'.*resolutoin"):
+        read_map(tmp_path / "bad.yaml")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        read_map(tmp_path / "m.yaml")          # a correct file: no warning

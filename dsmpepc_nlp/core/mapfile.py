@@ -3,6 +3,8 @@ other images Pillow reads) read as ``map_server`` reads them."""
 
 from __future__ import annotations
 
+import difflib
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -103,6 +105,16 @@ def _read_image(path):
     return pixels.astype(float), maxval
 
 
+MAP_FIELDS = ("image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh",
+              "mode")
+"""The fields of a ROS ``map_server`` YAML this reader knows."""
+
+
+def _did_you_mean(key: str, candidates) -> str:
+    close = difflib.get_close_matches(key, list(candidates), n=1, cutoff=0.6)
+    return f" (did you mean to write {key!r} for {close[0]!r}?)" if close else ""
+
+
 def read_map(path):
     """Read a ROS ``map_server`` map: ``(occupied[iy, ix], resolution, origin (x, y))``.
 
@@ -137,9 +149,15 @@ def read_map(path):
         raise InputError(  # noqa: TRY004 - bad file content, not a bad argument
             f"{where}: expected a mapping with image, resolution, origin"
         )
+    unknown = [str(k) for k in meta if k not in MAP_FIELDS]
     for key in ("image", "resolution", "origin"):
         if key not in meta:
-            raise InputError(f"{where}: missing field {key!r}")
+            raise InputError(f"{where}: missing field {key!r}{_did_you_mean(key, unknown)}")
+    for key in unknown:      # map_server ignores them too; a misspelt optional field is a typo
+        close = difflib.get_close_matches(key, MAP_FIELDS, n=1, cutoff=0.6)
+        warnings.warn(f"{where}: unknown field {key!r} ignored"
+                      + (f"; did you mean {close[0]!r}?" if close else
+                         f" (fields: {', '.join(MAP_FIELDS)})"), stacklevel=2)
 
     def field(fn, key, *args):
         try:
