@@ -25,11 +25,39 @@ _CHILDREN: dict = {}
 """key -> (Popen, started at)."""
 
 
-def start(key, config, sizes, solver) -> None:
-    """Compile the problem of ``(config, sizes, solver)`` in a child process, once per ``key``
-    (a child that is running or done is not started again)."""
+MAX_RUNNING = 1
+"""Children compiling at once for the planners of one process: each ``cc1`` takes a core and up
+to ~0.9 GB, and the plans need the other core."""
+
+MAX_TRIES = 2
+"""Compiles of one library before the planner builds it itself (in the plan)."""
+
+_TRIES: dict = {}
+
+
+def running() -> int:
+    """Children compiling now."""
+    return sum(child.poll() is None for child, _ in _CHILDREN.values())
+
+
+def start(key, config, sizes, solver) -> bool:
+    """Compile the problem of ``(config, sizes, solver)`` in a child process unless one for
+    ``key`` is running or done, :data:`MAX_RUNNING` are running (the caller asks again later)
+    or it failed :data:`MAX_TRIES` times. True when one is running for ``key`` now."""
     if key in _CHILDREN:
-        return
+        if _CHILDREN[key][0].poll() is None:
+            return True
+        if state(key)[0] == "done" or _TRIES.get(key, 0) >= MAX_TRIES:
+            return False
+        del _CHILDREN[key]                     # failed: try again
+    if running() >= MAX_RUNNING:
+        return False
+    _TRIES[key] = _TRIES.get(key, 0) + 1
+    _spawn(key, config, sizes, solver)
+    return True
+
+
+def _spawn(key, config, sizes, solver) -> None:
     child = subprocess.Popen([sys.executable, "-c", _CHILD], stdin=subprocess.PIPE,
                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
@@ -70,7 +98,8 @@ def run_all(jobs, workers: int) -> None:
         while queue and len(running) < workers:
             key, config, sizes, solver = queue.pop(0)
             _CHILDREN.pop(key, None)
-            start(key, config, sizes, solver)
+            _TRIES.pop(key, None)
+            _spawn(key, config, sizes, solver)
             running.append(key)
         time.sleep(0.05)
         running = [key for key in running if state(key)[0] == "running"]

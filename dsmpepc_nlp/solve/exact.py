@@ -19,6 +19,8 @@ from __future__ import annotations
 import contextlib
 import importlib
 import os
+import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -34,7 +36,8 @@ from .cycle import Cycle
 
 _KERNEL_MODULE = f"{__package__}._exact_kernel"
 _LOCK = threading.Lock()
-_STATE = {"kernel": None, "failed": "", "numpy_only": False, "loading": None}
+_STATE = {"kernel": None, "failed": "", "numpy_only": False, "loading": None,
+          "deferred": False}
 
 
 def kernel_source_hash() -> str:
@@ -60,6 +63,8 @@ def kernel():
     loading = _STATE.get("loading")
     if loading is not None and loading.is_alive() and threading.current_thread() is not loading:
         return None               # being loaded in the background (preload): numpy meanwhile
+    if _STATE.get("deferred") and _STATE["kernel"] is None:
+        return None               # not loaded before a preload (defer): numpy meanwhile
     if not compile_enabled():     # read on every call, so that it holds from when it is set
         warn_once("exact-compile", "exact cost on the numpy path, slower (compiled evaluator "
                   "off: DSMPEPC_NO_COMPILE is set)")
@@ -84,15 +89,40 @@ def preload() -> None:
     take ~0.6 s); until it is there, :func:`kernel` answers None and the exact cost runs on
     the numpy path (the same costs to ~1e-12), so a robot's first plan does not wait for it.
     :func:`wait_for_kernel` waits for it."""
+    _STATE["deferred"] = False
     if _STATE["kernel"] is not None or _STATE.get("loading") or not compile_enabled():
         return
-    thread = threading.Thread(target=kernel, name="dsmpepc-kernel-load", daemon=True)
+    thread = threading.Thread(target=_compile_then_load, name="dsmpepc-kernel-load",
+                              daemon=True)
     _STATE["loading"] = thread
     thread.start()
 
 
+def _compile_then_load():
+    """The preload thread: a kernel not in the cache yet is compiled by a child process (numba's
+    compiler would hold Python's lock for ~20 s, stalling every plan of this process), then
+    loaded here (~0.6 s)."""
+    try:
+        if not any(kernel_cache_dir().rglob("*.nbi")):
+            subprocess.run([sys.executable, "-c", "from dsmpepc_nlp.solve import exact; "
+                            "exact.kernel()"], capture_output=True, timeout=600, check=False)
+    except (OSError, subprocess.SubprocessError):
+        pass
+    kernel()
+
+
+def defer() -> None:
+    """Until :func:`preload` or :func:`wait_for_kernel`, :func:`kernel` answers None (the numpy
+    path) while the kernel is not loaded: a robot's first plan does not pay numba's import and
+    the kernel's load (~0.6 s; the numpy path plans in ~0.2 s); the planner preloads after it."""
+    if _STATE["kernel"] is None:
+        _STATE["deferred"] = True
+
+
 def wait_for_kernel():
-    """:func:`kernel`, after a :func:`preload` in progress has finished."""
+    """:func:`kernel`, after a :func:`preload` in progress has finished (a deferred kernel is
+    loaded now)."""
+    _STATE["deferred"] = False
     loading = _STATE.get("loading")
     if loading is not None:
         loading.join()

@@ -37,6 +37,10 @@ FALLBACK_STATUSES = ("sampling-fallback", "stopped")
 FALLBACK_WARNING = 3
 """Plans in a row that fall back before the planner warns (once, until :meth:`Planner.reset`)."""
 
+QUICK_SAMPLES = 512
+"""Samples of the stand-in sampler while a library compiles and the exact kernel is not loaded
+(the numpy path: ~0.1 s a plan)."""
+
 COMPILE_MODES = ("background", "wait")
 """What :meth:`Planner.plan` does when the NLP's library for a cycle is not compiled yet:
 ``background`` (default) compiles it in a child process and plans with the sampler meanwhile
@@ -131,8 +135,9 @@ class Planner:
             raise InputError(f"compile = {mode!r} (or $DSMPEPC_COMPILE): must be one of "
                              f"{', '.join(COMPILE_MODES)}")
         self.compile = mode
+        self._quick = None
         if mode == "background":
-            exact.preload()
+            exact.defer()      # the first plan on the numpy path; numba loads after it
         self.sampler = SamplingPlanner(self.config, self.solver)
         self.nlp = None
         if self.solver.method != "sampling":
@@ -154,6 +159,17 @@ class Planner:
         nlp_s = self.nlp.prepare(max_objects) if self.nlp is not None else 0.0
         exact.wait_for_kernel()
         return {"nlp_s": nlp_s, "exact_s": time.perf_counter() - started - nlp_s}
+
+    def _quick_sampler(self) -> SamplingPlanner:
+        """The sampler while a library compiles: the configured one when the compiled exact
+        kernel is loaded, else one of :data:`QUICK_SAMPLES` samples (the numpy path costs
+        4,096 in ~1 s, past the control period)."""
+        if exact.kernel() is not None:
+            return self.sampler
+        if self._quick is None:
+            self._quick = SamplingPlanner(self.config, dataclasses.replace(
+                self.solver, n_samples=min(QUICK_SAMPLES, self.solver.n_samples)))
+        return self._quick
 
     def reset(self) -> None:
         """Forget the warm start and the fallback count (a new episode)."""
@@ -222,7 +238,8 @@ class Planner:
             if sample:
                 evaluated = _attempt(trouble, "the sampler", self.sampler.search, cycle, starts)
         if plan is None and cycle is not None:
-            evaluated = evaluated or _attempt(trouble, "the sampler", self.sampler.search,
+            sampler = self.sampler if not compiling else self._quick_sampler()
+            evaluated = evaluated or _attempt(trouble, "the sampler", sampler.search,
                                               cycle, starts)
             if evaluated is not None:
                 plan = _attempt(trouble, "the sampled verdict", self._from_evaluation,
@@ -241,6 +258,8 @@ class Planner:
         plan = _replace(plan, wall_time=time.perf_counter() - started, evaluated=evaluated,
                         fallbacks_in_row=self._count_fallback(plan))
         self._previous_target = (plan.trajectory.target, float(plan.x[3]))
+        if self.compile == "background":
+            exact.preload()    # once: the compiled kernel loads in a thread after a first plan
         return plan
 
     def _count_fallback(self, plan: Plan) -> int:

@@ -153,11 +153,15 @@ def readiness(config: PlannerConfig, sizes, solver: SolverConfig) -> tuple:
         background.state(key)      # reaps a child that compiled it, closes its pipe
         return True, ""
     status, seconds = background.state(key)
-    if status in ("done", "failed"):
-        return True, ""            # done: the library is there; failed: build it here
-    background.start(key, config, sizes, knobs)
+    if status == "done":
+        return True, ""            # the library is there (a race with the cache check)
+    if background.start(key, config, sizes, knobs):
+        return False, (f"the NLP's library for this structure ({sizes.k_pose} objects at a "
+                       f"pose) is compiling in the background ({seconds:.0f} s so far)")
+    if status == "failed" and not background.start(key, config, sizes, knobs):
+        return True, ""            # failed its tries: the planner builds it itself
     return False, (f"the NLP's library for this structure ({sizes.k_pose} objects at a pose) "
-                   f"is compiling in the background ({seconds:.0f} s so far)")
+                   "waits for another library's compile in the background")
 
 
 _BUILT: set = set()
