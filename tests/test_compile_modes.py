@@ -57,20 +57,46 @@ def test_wait_mode_and_a_bad_mode(monkeypatch):
         Planner()
 
 
-def test_a_failed_background_compile_lets_the_planner_build_it_itself(monkeypatch):
-    calls = []
-    monkeypatch.setattr(background, "_CHILDREN", {})
+@needs_compiler
+def test_a_failed_background_compile_is_retried_then_left_to_the_planner(tmp_path,
+                                                                         monkeypatch):
+    """A child that failed is started again (not ready meanwhile); after MAX_TRIES failures
+    the library is ready to be built by the planner itself, with one warning; one child runs
+    at a time."""
+    from dsmpepc_nlp.core.config import SolverConfig
+    from dsmpepc_nlp.solve import problem
 
-    class Done:
+    monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))           # nothing is cached
+    monkeypatch.setattr(background, "_CHILDREN", {})
+    monkeypatch.setattr(background, "_TRIES", {})
+    warned, spawned = [], []
+    monkeypatch.setattr(background, "warn_once", lambda key, message: warned.append(message))
+
+    class Child:
         stderr = None
 
-        def poll(self):
-            return 1
+        def __init__(self, code):
+            self.code = code
 
-    background._CHILDREN["key"] = (Done(), time.monotonic())
-    monkeypatch.setattr(background, "warn_once", lambda key, message: calls.append(message))
-    assert background.state("key")[0] == "failed"
-    assert calls and "failed" in calls[0]
+        def poll(self):
+            return self.code
+
+    def spawn(key, *args):
+        spawned.append(key)
+        background._CHILDREN[key] = (Child(None), time.monotonic())     # running
+
+    monkeypatch.setattr(background, "_spawn", spawn)
+    config, solver = PlannerConfig(), SolverConfig()
+    sizes, other = g.GraphSizes(pose_objects=4), g.GraphSizes(pose_objects=12)
+    key = problem.library_key(config, sizes, solver)
+    assert problem.readiness(config, sizes, solver)[0] is False and spawned == [key]
+    ready, note = problem.readiness(config, other, solver)      # the one slot is taken
+    assert not ready and "waits for another" in note and len(spawned) == 1
+    background._CHILDREN[key] = (Child(1), time.monotonic())         # the first try failed
+    assert problem.readiness(config, sizes, solver)[0] is False and spawned == [key, key]
+    background._CHILDREN[key] = (Child(1), time.monotonic())         # the second too
+    assert problem.readiness(config, sizes, solver) == (True, "")
+    assert warned and "failed" in warned[0]
 
 
 def test_paper_preset_is_the_paper_and_the_variants():

@@ -368,10 +368,14 @@ class PlannerConfig:
         cost = self.cost
         if not cost.sigma_static_from_map or resolution is None:
             return self
-        sigma = math.sqrt(resolution * resolution / 12.0 + cost.localisation_std ** 2)
-        if sigma == cost.sigma_static:
-            return self
-        return dataclasses.replace(self, cost=dataclasses.replace(cost, sigma_static=sigma))
+        # Kept per instance and resolution: a planner asks every cycle for the same map, and
+        # rebuilding (and validating) the configuration took ~35 us a call.
+        made = self.__dict__.setdefault("_for_map", {})
+        if resolution not in made:
+            sigma = math.sqrt(resolution * resolution / 12.0 + cost.localisation_std ** 2)
+            made[resolution] = self if sigma == cost.sigma_static else dataclasses.replace(
+                self, cost=dataclasses.replace(cost, sigma_static=sigma))
+        return made[resolution]
 
     @classmethod
     def mpepc(cls, **changes) -> PlannerConfig:

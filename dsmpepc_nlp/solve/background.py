@@ -35,6 +35,12 @@ MAX_TRIES = 2
 _TRIES: dict = {}
 
 
+def exhausted(key) -> bool:
+    """True when ``key``'s compiles failed :data:`MAX_TRIES` times (the planner then builds the
+    library itself)."""
+    return _TRIES.get(key, 0) >= MAX_TRIES and state(key)[0] == "failed"
+
+
 def running() -> int:
     """Children compiling now."""
     return sum(child.poll() is None for child, _ in _CHILDREN.values())
@@ -47,7 +53,7 @@ def start(key, config, sizes, solver) -> bool:
     if key in _CHILDREN:
         if _CHILDREN[key][0].poll() is None:
             return True
-        if state(key)[0] == "done" or _TRIES.get(key, 0) >= MAX_TRIES:
+        if state(key)[0] == "done" or exhausted(key):
             return False
         del _CHILDREN[key]                     # failed: try again
     if running() >= MAX_RUNNING:

@@ -43,15 +43,7 @@ def cache_dir(kind: str) -> Path:
     ``$DSMPEPC_CACHE_DIR`` overrides the user cache folder; the package version is part of the
     path so that an upgrade never loads stale code.
     """
-    root = os.environ.get("DSMPEPC_CACHE_DIR")
-    if not root:
-        try:
-            import platformdirs
-
-            root = platformdirs.user_cache_dir("dsmpepc_nlp")
-        except ImportError:  # platformdirs is a dependency; a bare checkout may lack it
-            root = os.path.join(os.path.expanduser("~"), ".cache", "dsmpepc_nlp")
-    path = Path(root) / package_version() / kind
+    path = cache_root() / package_version() / kind
     path.mkdir(parents=True, exist_ok=True)
     return path
 
@@ -198,7 +190,7 @@ def cache_root() -> Path:
         import platformdirs
 
         return Path(platformdirs.user_cache_dir("dsmpepc_nlp"))
-    except ImportError:  # pragma: no cover
+    except ImportError:  # platformdirs is a dependency; a bare checkout may lack it
         return Path(os.path.expanduser("~")) / ".cache" / "dsmpepc_nlp"
 
 

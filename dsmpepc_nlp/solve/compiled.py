@@ -96,8 +96,13 @@ No ``-ffast-math`` and no ``-march``: without reassociation or fused multiply-ad
 operation rounds as written, and the outputs are ``-O1``'s to the bit."""
 
 
+@functools.lru_cache(maxsize=4)
+def _find_compiler(name: str) -> str | None:
+    return shutil.which(name) or shutil.which("cc")
+
+
 def _compiler() -> str | None:
-    return shutil.which(os.environ.get("CC", "gcc")) or shutil.which("cc")
+    return _find_compiler(os.environ.get("CC", "gcc"))
 
 
 def _usable_compiler() -> str | None:
@@ -307,9 +312,7 @@ def build(make_cost, fd_step, key_parts: tuple, hessian="differences") -> Compil
     difference steps are parameters (:func:`problem_functions`). The key holds ``key_parts``
     (the structure), the sources, CasADi's version, the compiler and its flags.
     """
-    steps = None if fd_step is None else tuple(np.asarray(fd_step, dtype=float).tolist())
-    key = config_key(*key_parts, hessian, steps, source_hash(), ca.__version__,
-                     _compiler_identity(), COMPILE_FLAGS)
+    key = library_key(*key_parts, hessian=hessian, fd_step=fd_step)
     library = _library_path(key)
     if _usable_compiler() is not None and library.exists():
         touch(library)
@@ -319,7 +322,8 @@ def build(make_cost, fd_step, key_parts: tuple, hessian="differences") -> Compil
 
 
 def compiling_possible() -> bool:
-    """True when a library can be compiled (compilation on, a compiler found)."""
+    """True when a library can be compiled (compilation on, a compiler found; the compiler is
+    looked up once a process)."""
     return compile_enabled() and _compiler() is not None
 
 
@@ -329,7 +333,7 @@ def is_cached(key: str) -> bool:
 
 
 def library_key(*key_parts, hessian="differences", fd_step=None) -> str:
-    """The cache key :func:`build` gives these arguments (for tests and ``dsmpepc cache``)."""
+    """The cache key of the library :func:`build` makes of these arguments."""
     steps = None if fd_step is None else tuple(np.asarray(fd_step, dtype=float).tolist())
     return config_key(*key_parts, hessian, steps, source_hash(), ca.__version__,
                       _compiler_identity(), COMPILE_FLAGS)

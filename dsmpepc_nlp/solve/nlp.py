@@ -99,6 +99,7 @@ class NlpSolver:
         self._box_z = np.vstack([self.spread, self.screen]).reshape(-1, 4)
         self._lam_x = None
         self._seen = set()
+        self._ready = set()
         self.last_stats = []
         self.build_s = time.perf_counter() - started
 
@@ -111,9 +112,15 @@ class NlpSolver:
         return dataclasses.replace(self.sizes, pose_objects=bucket)
 
     def readiness(self, cycle) -> tuple:
-        """``(ready, note)`` of ``cycle``'s problem (:func:`.problem.readiness`): not ready
-        while its library compiles in a child process."""
-        return readiness(self.config, self.sizes_for(cycle), self.solver_config)
+        """``(ready, note)`` of ``cycle``'s problem (:func:`.problem.readiness`); a bucket
+        found ready stays ready, so a plan asks the cache only until then."""
+        sizes = self.sizes_for(cycle)
+        if sizes in self._ready:
+            return True, ""
+        ready, note = readiness(self.config, sizes, self.solver_config)
+        if ready:
+            self._ready.add(sizes)
+        return ready, note
 
     def prepare(self, max_objects: int | None = None) -> float:
         """Build (compile, or load) the problem of every object bucket a cycle may use now

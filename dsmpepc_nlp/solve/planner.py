@@ -230,8 +230,8 @@ class Planner:
         compiling = ""
         if plan is None and self.nlp is not None and cycle is not None \
                 and self.compile == "background":
-            ready, compiling = _attempt(trouble, "the NLP's readiness", self.nlp.readiness,
-                                        cycle) or (True, "")
+            _, compiling = _attempt(trouble, "the NLP's readiness", self.nlp.readiness,
+                                    cycle) or (True, "")
         if plan is None and self.nlp is not None and cycle is not None and not compiling:
             records = _attempt(trouble, "the NLP", self._solve_nlp, cycle, starts) or ()
             plan = _attempt(trouble, "the NLP's verdict", self._choose_nlp, records, cycle)

@@ -140,9 +140,10 @@ def library_key(config: PlannerConfig, sizes, solver: SolverConfig) -> str:
 
 def readiness(config: PlannerConfig, sizes, solver: SolverConfig) -> tuple:
     """``(ready, note)``: ready when :func:`problem` returns without compiling (built in this
-    process, compiled in the cache, or no compiler: the virtual machine). Otherwise the
-    library is compiled in a child process (started here, once) and ``note`` says since when.
-    """
+    process, compiled in the cache, or no compiler: the virtual machine), or when its
+    background compiles failed :data:`.background.MAX_TRIES` times (the planner builds it).
+    Otherwise a child process compiles it (started here, one at a time, a failed one again)
+    and ``note`` says so."""
     if not compiled.compiling_possible():
         return True, ""
     knobs = _graph_knobs(solver)
@@ -153,15 +154,12 @@ def readiness(config: PlannerConfig, sizes, solver: SolverConfig) -> tuple:
         background.state(key)      # reaps a child that compiled it, closes its pipe
         return True, ""
     status, seconds = background.state(key)
-    if status == "done":
-        return True, ""            # the library is there (a race with the cache check)
+    if status == "done" or background.exhausted(key):
+        return True, ""            # there (a race with the cache check), or built here
+    what = f"the NLP's library for this structure ({sizes.k_pose} objects at a pose)"
     if background.start(key, config, sizes, knobs):
-        return False, (f"the NLP's library for this structure ({sizes.k_pose} objects at a "
-                       f"pose) is compiling in the background ({seconds:.0f} s so far)")
-    if status == "failed" and not background.start(key, config, sizes, knobs):
-        return True, ""            # failed its tries: the planner builds it itself
-    return False, (f"the NLP's library for this structure ({sizes.k_pose} objects at a pose) "
-                   "waits for another library's compile in the background")
+        return False, f"{what} is compiling in the background ({seconds:.0f} s so far)"
+    return False, f"{what} waits for another library's compile in the background"
 
 
 _BUILT: set = set()

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import math
 
 import numpy as np
@@ -41,13 +42,19 @@ SWITCHES = ("anticipatory_pc", "terminal_cost")
 
 def names(config: PlannerConfig) -> tuple:
     """The settings block's entries, in order: ``section.field`` for every float field of
-    :data:`SECTIONS`, then ``footprint.i.cx|cy|radius`` for each circle."""
-    out = []
-    for section in SECTIONS:
-        for field in dataclasses.fields(getattr(config, section)):
+    :data:`SECTIONS`, then ``footprint.i.cx|cy|radius`` for each circle, then the switches."""
+    return _names(len(config.robot.footprint), SECTIONS)
+
+
+@functools.lru_cache(maxsize=16)
+def _names(circles: int, sections: tuple) -> tuple:
+    """:func:`names` for a footprint of ``circles`` (the rest is the classes' fields): once."""
+    out, default = [], PlannerConfig()
+    for section in sections:
+        for field in dataclasses.fields(getattr(default, section)):
             if field.type == "float":
                 out.append(f"{section}.{field.name}")
-    for i in range(len(config.robot.footprint)):
+    for i in range(circles):
         out.extend(f"footprint.{i}.{part}" for part in FOOTPRINT)
     out.extend(f"switch.{name}" for name in SWITCHES)
     return tuple(out)
