@@ -11,6 +11,7 @@ from .core.config import (
     RobotState,
     SmoothingConfig,
     SolverConfig,
+    StallConfig,
 )
 from .core.control_law import Trajectory, rollout, rollout_function
 from .core.costs import CostBreakdown, evaluate
@@ -23,5 +24,5 @@ __all__ = [
     "DynamicObstacle", "HorizonConfig", "InputError", "NavigationFunction", "OccupancyGrid",
     "Plan", "Planner",
     "PlannerConfig", "RobotConfig", "RobotState", "SmoothingConfig", "SolverConfig",
-    "StartRecord", "Trajectory", "World", "evaluate", "rollout", "rollout_function",
+    "StallConfig", "StartRecord", "Trajectory", "World", "evaluate", "rollout", "rollout_function",
 ]

@@ -12,8 +12,8 @@ from dsmpepc_nlp.sim.simulate import Episode
 
 TINY = {
     "name": "tiny",
-    "duration": 6.0,
-    "robots": [{"name": "a", "start": [0.0, 0.0, 0.0], "goal": {"position": [2.5, 0.3]}}],
+    "duration": 9.0,    # the goal beyond the docking reach (5 m): the first plans are sampled
+    "robots": [{"name": "a", "start": [0.0, 0.0, 0.0], "goal": {"position": [5.5, 0.3]}}],
     "pedestrians": [{"start": [3.0, 3.0], "velocity": [-0.4, 0.0]}],
 }
 

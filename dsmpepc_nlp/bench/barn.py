@@ -38,7 +38,7 @@ from ..sim.metrics import episode_metrics
 from ..sim.simulate import simulate
 from ..sim.types import Agent, FixedGoal, Scenario
 from ..viz import figures
-from .params import configure
+from .params import config_meta, configure
 from .results import ResultTable, keep_failure
 from .runner import mean, outcome_rates, plan_time_summary, run_all
 
@@ -264,18 +264,18 @@ class BarnSettings:
     overrides: tuple = ()
     """``(name, value)`` pairs replacing configuration fields, as for ``sweep --param``
     (``sigma_static`` for a cost field, ``part.field`` for another part)."""
+    preset: str = "product"
+    """``product`` or ``paper`` (:data:`~dsmpepc_nlp.bench.params.PRESETS`)."""
 
     def meta(self) -> dict:
-        meta = {"benchmark": "barn", "variant": self.variant, "solver": self.solver,
+        return {"benchmark": "barn", "variant": self.variant, "solver": self.solver,
                 "v_limit": self.v_limit, "resolution": self.resolution,
-                "time_limit": self.time_limit, "n_samples": self.n_samples}
-        if self.overrides:
-            meta["overrides"] = {k: v for k, v in self.overrides}
-        return meta
+                "time_limit": self.time_limit, "n_samples": self.n_samples,
+                **config_meta(self.preset, self.overrides)}
 
     def config(self) -> PlannerConfig:
-        """The variant with the Jackal body and the overrides."""
-        config = configure(dict(self.overrides), self.variant)
+        """The variant under the preset with the Jackal body and the overrides."""
+        config = configure(dict(self.overrides), self.variant, self.preset)
         return replace(config, robot=replace(jackal_robot(self.v_limit), **{
             k.split(".", 1)[1]: v for k, v in self.overrides if k.startswith("robot.")}))
 

@@ -31,7 +31,7 @@ from ..sim.simulate import simulate
 from ..viz import figures
 from . import barn, claims, crowdnav, crowds, sweep
 from .crosscheck import crosscheck
-from .params import parse_ipopt_options, parse_params, preset_config
+from .params import PRESETS, overrides, parse_ipopt_options, parse_params, preset_config
 from .results import parse_indices
 from .summary import fmt, summarised, summary_text  # noqa: F401 (summary_text re-exported)
 from .timing import run_bench
@@ -124,7 +124,14 @@ def run_timing(args) -> int:
 # benchmark barn | crowd | scenarios, sweep
 
 
-def _table_options(parser, out_default: str, solver_default: str = "nlp") -> None:
+def _table_options(parser, out_default: str, solver_default: str = "nlp",
+                   configurable: bool = False) -> None:
+    if configurable:
+        parser.add_argument("--preset", default="product", choices=PRESETS,
+                            help="the planners' configuration: product (default) or paper")
+        parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                            help="replace a field of the preset, e.g. sigma_static=0.05 (a "
+                                 "CostConfig field) or stall.levels=0 (repeatable)")
     parser.add_argument("--workers", type=options.positive, default=None,
                         help="parallel worker processes, >= 1 (default: number of cores)")
     parser.add_argument("--out", default=out_default, help=f"output folder (default {out_default})")
@@ -153,19 +160,7 @@ def add_barn(p) -> None:
                    help=f"map cell side, m (default {barn.DEFAULT_RESOLUTION})")
     p.add_argument("--time-limit", type=options.number(0.0, low_open=True),
                    default=barn.TIME_LIMIT)
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                   help="replace a configuration field, e.g. sigma_static=0.05 (a CostConfig "
-                        "field) or docking.radius=1.5 (repeatable)")
-    _table_options(p, "results/barn")
-
-
-def overrides(specs) -> tuple:
-    """``--set NAME=VALUE`` pairs; each name once, with one value."""
-    params = parse_params(specs)
-    for name, values in params.items():
-        if len(values) != 1:
-            raise InputError(f"--set {name}: give one value, not {len(values)}")
-    return tuple((name, values[0]) for name, values in params.items())
+    _table_options(p, "results/barn", configurable=True)
 
 
 def run_barn(args) -> dict:
@@ -175,7 +170,8 @@ def run_barn(args) -> dict:
     settings = barn.BarnSettings(data=str(Path(args.data).resolve()), variant=args.variant,
                                  solver=args.solver, v_limit=args.v_limit,
                                  resolution=args.resolution, time_limit=args.time_limit,
-                                 n_samples=args.samples, overrides=overrides(args.set))
+                                 n_samples=args.samples, overrides=overrides(args.set),
+                                 preset=args.preset)
     _, summary = barn.run_benchmark(settings, worlds, args.out, workers=args.workers,
                                     resume=args.resume, overwrite=args.overwrite)
     summary["out"] = str(Path(args.out) / "barn.csv")
@@ -191,12 +187,13 @@ def add_crowd(p) -> None:
                    help=f"{', '.join(PLANNER_VARIANTS)}, orca, cv (constant-velocity baseline)")
     p.add_argument("--duration", type=options.number(0.0, low_open=True), default=None,
                    help=f"episode length, s (default {crowds.DEFAULT_DURATION})")
-    _table_options(p, "results/crowd")
+    _table_options(p, "results/crowd", configurable=True)
 
 
 def run_crowd(args) -> dict:
     settings = crowds.CrowdSettings(data=str(Path(args.data).resolve()), scene=args.scene,
                                     solver=args.solver, n_samples=args.samples,
+                                    preset=args.preset, overrides=overrides(args.set),
                                     **({"duration": args.duration} if args.duration else {}))
     return crowds.run_benchmark(settings, args.variants, args.episodes, args.seed, args.out,
                                 workers=args.workers, resume=args.resume,
@@ -221,13 +218,14 @@ def add_crowdnav(p) -> None:
                    default=crowdnav.DURATION,
                    help=f"episode length, s (default {crowdnav.DURATION:g}: CrowdNav's 25 s "
                         "limit times out at 24 s)")
-    _table_options(p, "results/crowdnav")
+    _table_options(p, "results/crowdnav", configurable=True)
 
 
 def run_crowdnav(args) -> dict:
     settings = crowdnav.CrowdNavSettings(scene=args.scene, setting=args.robot,
                                          humans=args.humans, solver=args.solver,
-                                         n_samples=args.samples, duration=args.duration)
+                                         n_samples=args.samples, duration=args.duration,
+                                         preset=args.preset, overrides=overrides(args.set))
     if args.solver != "sampling":
         solver_config(args.solver)  # fail early when the NLP cannot be loaded
     return crowdnav.run_benchmark(settings, args.variants, args.episodes, args.seed, args.out,
@@ -244,6 +242,7 @@ def _grid_options(p, out_default: str) -> None:
                         "that seeds differ (default: the scenario's)")
     p.add_argument("--scheduler", default=None,
                    help="address of a Dask scheduler (tcp://host:8786); default: processes")
+    p.add_argument("--preset", default="product", choices=PRESETS, help="product or paper")
     _table_options(p, out_default)
 
 
@@ -254,7 +253,7 @@ def add_scenarios(p) -> None:
 
 def run_scenarios(args) -> dict:
     settings = sweep.SweepSettings(solver=args.solver, n_samples=args.samples,
-                                   start_noise=args.start_noise)
+                                   start_noise=args.start_noise, preset=args.preset)
     return sweep.run_scenarios(args.variants, [s for s in args.scenarios.split(",") if s],
                                parse_indices(args.seeds, "--seeds"), settings, args.out,
                                workers=args.workers, scheduler=args.scheduler,
@@ -270,7 +269,8 @@ def add_sweep(p) -> None:
 
 def run_sweep(args) -> dict:
     settings = sweep.SweepSettings(variant=args.variant, solver=args.solver,
-                                   n_samples=args.samples, start_noise=args.start_noise)
+                                   n_samples=args.samples, start_noise=args.start_noise,
+                                   preset=args.preset)
     return sweep.run_sweep(parse_params(args.param), [s for s in args.scenarios.split(",") if s],
                            parse_indices(args.seeds, "--seeds"), settings, args.out,
                            workers=args.workers, scheduler=args.scheduler, resume=args.resume,

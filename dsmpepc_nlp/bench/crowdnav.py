@@ -62,6 +62,7 @@ from ..solve.planner import Planner
 from .crowds import measured_row, run_variants
 from .cv import CROWD_BASELINES, ConstantVelocityPlanner
 from .orca import OrcaPlanner, check_variants, require_pyrvo
+from .params import config_meta, configure
 from .results import ResultTable
 
 SCENES = ("circle", "square")
@@ -284,6 +285,10 @@ class CrowdNavSettings:
     solver: str = "nlp"
     n_samples: int | None = None
     duration: float = DURATION
+    preset: str = "product"
+    """The planners' configuration: ``product`` or ``paper`` (``orca`` and ``cv`` ignore it)."""
+    overrides: tuple = ()
+    """``(name, value)`` pairs replacing fields of the preset (``--set``)."""
 
     def __post_init__(self):
         if self.scene not in SCENES:
@@ -294,7 +299,8 @@ class CrowdNavSettings:
     def meta(self) -> dict:
         return {"benchmark": "crowdnav", "scene": self.scene, "setting": self.setting,
                 "humans": self.humans, "solver": self.solver, "n_samples": self.n_samples,
-                "duration": self.duration, "time_step": TIME_STEP}
+                "duration": self.duration, "time_step": TIME_STEP,
+                **config_meta(self.preset, self.overrides)}
 
 
 def episode_scenario(settings: CrowdNavSettings, episode: int, seed: int, robot=None):
@@ -330,7 +336,7 @@ def simulate_episode(settings: CrowdNavSettings, variant: str, episode: int, see
         config, make = PlannerConfig(), BASELINES[variant]
         solver = SolverConfig.sampling(n_samples=1)
     else:
-        config, make = PlannerConfig.variant(variant), Planner
+        config, make = configure(dict(settings.overrides), variant, settings.preset), Planner
         solver = SolverConfig.named(settings.solver)
         if settings.n_samples:
             solver = dataclasses.replace(solver, n_samples=settings.n_samples)

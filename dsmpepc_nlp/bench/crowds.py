@@ -36,6 +36,7 @@ from ..sim.simulate import simulate
 from ..sim.types import Agent, FixedGoal, Pedestrian, Scenario
 from .cv import CROWD_BASELINES, ConstantVelocityPlanner
 from .orca import check_variants, simulate_orca
+from .params import config_meta, configure
 from .results import ResultTable, keep_failure
 from .runner import mean, outcome_rates, plan_time_summary, run_all
 
@@ -254,11 +255,15 @@ class CrowdSettings:
     n_samples: int | None = None
     duration: float = DEFAULT_DURATION
     v_limit: float = 1.0
+    preset: str = "product"
+    """The planners' configuration: ``product`` or ``paper`` (``orca`` and ``cv`` ignore it)."""
+    overrides: tuple = ()
+    """``(name, value)`` pairs replacing fields of the preset (``--set``)."""
 
     def meta(self) -> dict:
         return {"benchmark": "crowd", "scene": self.scene, "solver": self.solver,
                 "n_samples": self.n_samples, "duration": self.duration,
-                "v_limit": self.v_limit}
+                "v_limit": self.v_limit, **config_meta(self.preset, self.overrides)}
 
 
 def episode_scenario(settings: CrowdSettings, episode: int, seed: int):
@@ -288,7 +293,8 @@ def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int,
         solver = SolverConfig.named(settings.solver)
         if settings.n_samples:
             solver = replace(solver, n_samples=settings.n_samples)
-        return simulate(scenario, PlannerConfig.variant(variant), solver, rng,
+        return simulate(scenario, configure(dict(settings.overrides), variant, settings.preset),
+                        solver, rng,
                         record_trajectories=False)
 
     return measured_row(row, run, lambda episode: {"contact_age": contact_age(episode)},

@@ -15,7 +15,8 @@ import dataclasses
 from ..core.config import PlannerConfig
 from ..core.errors import InputError
 
-SECTIONS = ("robot", "control_law", "horizon", "bounds", "cost", "smoothing", "docking")
+SECTIONS = ("robot", "control_law", "horizon", "bounds", "cost", "smoothing", "docking",
+            "stall")
 """PlannerConfig parts a parameter may name as ``part.field``; a bare name is a ``cost`` field."""
 
 
@@ -55,6 +56,24 @@ def parse_params(specs) -> dict:
     return params
 
 
+def overrides(specs) -> tuple:
+    """``--set NAME=VALUE`` pairs; each name once, with one value."""
+    params = parse_params(specs)
+    for name, values in params.items():
+        if len(values) != 1:
+            raise InputError(f"--set {name}: give one value, not {len(values)}")
+    return tuple((name, values[0]) for name, values in params.items())
+
+
+def config_meta(preset: str, pairs: tuple) -> dict:
+    """What a benchmark table stores of its configuration: the preset and the ``--set`` pairs,
+    each only when given (tables written before either existed keep their meaning)."""
+    meta = {} if preset == "product" else {"preset": preset}
+    if pairs:
+        meta["overrides"] = {k: v for k, v in pairs}
+    return meta
+
+
 PRESETS = ("product", "paper")
 """``product``: the package's defaults (``PlannerConfig.variant``); ``paper``: the paper's values
 and none of our extensions (``PlannerConfig.paper``)."""
@@ -74,12 +93,15 @@ def configure(params: dict, variant: str, preset: str = "product") -> PlannerCon
     changes: dict = {}
     for name, value in params.items():
         section, field = _resolve_name(name)
-        if section == "horizon" and field == "n_steps":
-            value = int(value)
-        elif isinstance(getattr(getattr(config, section), field), bool):
+        current = getattr(getattr(config, section), field)
+        if isinstance(current, bool):
             if value not in (0, 1):
                 raise InputError(f"--param {name}={value!r}: a switch takes 0 (off) or 1 (on)")
             value = bool(value)
+        elif isinstance(current, int):
+            if value != int(value):
+                raise InputError(f"--param {name}={value!r}: must be a whole number")
+            value = int(value)
         changes.setdefault(section, {})[field] = value
     parts = {s: dataclasses.replace(getattr(config, s), **c) for s, c in changes.items()}
     return dataclasses.replace(config, **parts)

@@ -304,12 +304,65 @@ class DockingConfig:
     """Docking near a fixed goal (IROS 2012, docs/method.md section 7.1)."""
 
     radius: float = 2.0
-    """Within this distance of a fixed goal the target pose is the goal itself, m (IROS 2012)."""
+    """Within this distance of a fixed goal the target pose is the goal itself, m (IROS 2012);
+    see ``radius_from_reach``."""
+    radius_from_reach: bool = True
+    """Our extension (off in :meth:`PlannerConfig.paper`): dock within the horizon's reach,
+    ``v_limit * n_steps * dt`` (5 m by default), or ``radius`` if that is larger. Once the goal
+    is within reach, every trajectory that arrives by the horizon's end earns the same
+    progress, and the action cost then prefers the slowest of them: a robot that does not
+    dock slows down to arrive just as the horizon ends (docs/method.md section 7.1)."""
     min_survival: float = 0.9
-    """Dock only while the docking trajectory's horizon survivability is above this (our choice)."""
+    """Dock only while the docking trajectory's survivability is above this (our choice)."""
+    arrival_radius: float = 0.1
+    """Our extension (0 in :meth:`PlannerConfig.paper`): the docking trajectory's survivability
+    is read where it first comes within this distance of the goal, m, not at the horizon's end.
+    Standing at the goal after arriving is the next task's risk, and counting it kept robots
+    short of a goal with a person standing beside it (docs/method.md section 7.1). 0: read at
+    the horizon's end."""
 
     def __post_init__(self):
-        _validate_fields(self, {"radius": dict(low=0.0), "min_survival": dict(low=0.0, high=1.0)})
+        _validate_fields(self, {"radius": dict(low=0.0), "min_survival": dict(low=0.0, high=1.0),
+                                "arrival_radius": dict(low=0.0)})
+        if not isinstance(self.radius_from_reach, bool):
+            _fail("DockingConfig", "radius_from_reach", self.radius_from_reach, "True or False")
+
+
+@dataclass(frozen=True)
+class StallConfig:
+    """The planner's stall monitor and its escalation ladder (our extension, docs/method.md
+    section 7.5; off in :meth:`PlannerConfig.paper`).
+
+    A robot that moved less than ``min_displacement`` over its last ``window`` of plans while
+    farther than ``docking.arrival_radius`` from its goal is stalled; each such window raises
+    the ladder one level, up to ``levels``, and level ``k`` plans with the progress weight
+    times ``gain ** k``: progress is worth more of the risk the cost weighs it against. A
+    window with progress puts the ladder back to 0. The simulator's deadlock rule does not
+    know of it: a robot the ladder cannot free still deadlocks.
+    """
+
+    window: float = 2.0
+    """Stall window, s, counted in plans of ``horizon.dt`` each (our choice: a fifth of the
+    simulator's 10 s deadlock window, so the ladder's levels come well before it)."""
+    min_displacement: float = 0.2
+    """Least net displacement over the window, m, of a robot that is not stalled: the
+    simulator's deadlock rate (1 m in 10 s), so a robot slower than what that rule calls
+    stuck escalates long before the rule fires (our choice)."""
+    levels: int = 3
+    """The ladder's highest level; 0 turns the monitor off."""
+    gain: float = 2.0
+    """Level ``k`` multiplies the progress weight by ``gain ** k``."""
+
+    def __post_init__(self):
+        _validate_fields(self, {"window": dict(low=0.0, low_open=True),
+                                "min_displacement": dict(low=0.0, low_open=True),
+                                "gain": dict(low=1.0)})
+        if isinstance(self.levels, bool) or not isinstance(self.levels, int) or self.levels < 0:
+            _fail("StallConfig", "levels", self.levels, "an integer >= 0")
+
+    def progress_gain(self, level: int) -> float:
+        """The progress weight's factor at ``level`` (1 at level 0)."""
+        return self.gain ** level
 
 
 @dataclass(frozen=True)
@@ -331,6 +384,7 @@ class PlannerConfig:
     cost: CostConfig = field(default_factory=CostConfig)
     smoothing: SmoothingConfig = field(default_factory=SmoothingConfig)
     docking: DockingConfig = field(default_factory=DockingConfig)
+    stall: StallConfig = field(default_factory=StallConfig)
     anticipatory_pc: bool = True
     """DS-MPEPC's collision probability with the time-to-collision factor (paper eq. 5)."""
     terminal_cost: bool = True
@@ -340,7 +394,7 @@ class PlannerConfig:
         expected = {
             "robot": RobotConfig, "control_law": ControlLawConfig, "horizon": HorizonConfig,
             "bounds": BoundsConfig, "cost": CostConfig, "smoothing": SmoothingConfig,
-            "docking": DockingConfig,
+            "docking": DockingConfig, "stall": StallConfig,
         }
         for name, kind in expected.items():
             if not isinstance(getattr(self, name), kind):
@@ -358,6 +412,8 @@ class PlannerConfig:
         if switches is None:
             raise InputError(f"variant = {variant!r}: must be one of {', '.join(VARIANTS)}")
         cost = changes.pop("cost", CostConfig(sigma_static_from_map=False, ttg_along_nf=False))
+        changes.setdefault("docking", DockingConfig(arrival_radius=0.0, radius_from_reach=False))
+        changes.setdefault("stall", StallConfig(levels=0))
         return cls(anticipatory_pc=switches[0], terminal_cost=switches[1], cost=cost, **changes)
 
     def for_map(self, resolution: float | None) -> PlannerConfig:

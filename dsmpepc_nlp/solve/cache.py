@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import ast
 import contextlib
+import functools
 import hashlib
 import json
 import os
@@ -23,8 +24,10 @@ from pathlib import Path
 _WARNED: set = set()
 
 
+@functools.cache
 def package_version() -> str:
-    """The installed version of dsmpepc_nlp ("0+unknown" when running from a bare checkout)."""
+    """The installed version of dsmpepc_nlp ("0+unknown" when running from a bare checkout);
+    looked up once a process (a look-up reads the package's metadata: ~5 ms)."""
     try:
         return metadata.version("dsmpepc_nlp")
     except metadata.PackageNotFoundError:

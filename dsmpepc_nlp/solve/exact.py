@@ -119,6 +119,15 @@ def defer() -> None:
         _STATE["deferred"] = True
 
 
+def standing_in() -> bool:
+    """True while :func:`kernel` answers None only because the kernel is deferred or still
+    loading: the numpy path stands in for a plan or two of a fresh process."""
+    if _STATE["kernel"] is not None or _STATE["numpy_only"] or _STATE["failed"]:
+        return False
+    loading = _STATE.get("loading")
+    return bool(_STATE.get("deferred")) or (loading is not None and loading.is_alive())
+
+
 def wait_for_kernel():
     """:func:`kernel`, after a :func:`preload` in progress has finished (a deferred kernel is
     loaded now)."""

@@ -7,8 +7,7 @@ low-discrepancy z with the compiled exact evaluator, binds the cycle's parameter
 compiled global graph once, runs the solver (IPOPT or the trust-region Newton method) from the
 warm start and the best distinct others (``n_solved``), and hands back one
 :class:`~dsmpepc_nlp.solve.records.StartRecord` per start with its exact cost: the verdict is
-the exact cost. Every knob is a ``SolverConfig`` field; why these settings, and what they
-measured, is in ``docs/nlp.md``.
+the exact cost. Every knob is a ``SolverConfig`` field; why these settings: ``docs/nlp.md``.
 """
 
 from __future__ import annotations
@@ -21,7 +20,7 @@ import time
 import numpy as np
 
 from ..core.config import PlannerConfig, SolverConfig
-from . import nlp_global, solvers, threads
+from . import exact, nlp_global, solvers, threads
 from .nlp_global import PARAMETER_NAMES, GraphSizes, pack_parameters, parameter_shapes
 from .problem import readiness
 from .records import StartRecord
@@ -101,11 +100,11 @@ class NlpSolver:
         self._seen = set()
         self._ready = set()
         self.last_stats = []
+        self.polish_skipped = False
         self.build_s = time.perf_counter() - started
 
     def sizes_for(self, cycle) -> GraphSizes:
-        """The graph sizes of ``cycle``: the smallest object bucket holding its objects in
-        reach (the largest bucket when none does)."""
+        """The graph sizes of ``cycle``: the least bucket holding its objects, else the largest."""
         in_reach = nlp_global.objects_in_reach(cycle)
         buckets = self.solver_config.pose_object_buckets
         bucket = next((b for b in buckets if b >= in_reach), buckets[-1])
@@ -198,8 +197,7 @@ class NlpSolver:
             chosen.extend(self._choose(named, screened[0]))
 
         def listed():
-            """``records``, one per start, made on first use: ~270 records take ~0.6 ms,
-            which the first solves from the screen need not wait for."""
+            """``records``, one per start, made on first use (the solves need not wait)."""
             if not records:
                 records.extend(StartRecord(name, z0, z0, "screened", False, 0, 0.0, math.nan,
                                            float(cost))
@@ -221,7 +219,9 @@ class NlpSolver:
         best_cost, best_lam = math.inf, None
         walks = {}
         idle = None
-        if self.solver_config.polish_ahead:
+        # No polish while the kernel loads (a fresh process's first plan): ~0.1 s on numpy.
+        self.polish_skipped = exact.standing_in()
+        if self.solver_config.polish_ahead and not self.polish_skipped:
             def idle(done, busy):       # called once the screen is done (threads.run_starts)
                 ahead = list(listed())
                 for index, result in done.items():
@@ -242,7 +242,7 @@ class NlpSolver:
         if best_lam is not None:
             self._lam_x = best_lam
         self._verdicts(records, cycle)
-        polished = self._polish(records, cycle, walks)
+        polished = None if self.polish_skipped else self._polish(records, cycle, walks)
         return records + ([polished] if polished is not None else [])
 
     @staticmethod

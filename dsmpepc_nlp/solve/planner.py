@@ -12,14 +12,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.config import PlannerConfig, RobotState, SolverConfig
-from ..core.control_law import Trajectory, rollout, z_from_target
+from ..core.control_law import Trajectory, rollout
 from ..core.costs import TERM_NAMES, CostBreakdown
 from ..core.errors import InputError
-from . import exact
+from . import docking, exact
 from .cycle import Cycle
 from .nlp import NlpSolver
 from .records import StartRecord  # noqa: F401 (re-exported: Plan.starts holds them)
 from .sampling import Evaluation, SamplingPlanner, clip_to_bounds, evaluate_batch, structured_starts
+from .stall import StallMonitor
 from .starting import as_state, start_overlap
 
 STATUSES = ("nlp", "sampling", "sampling-fallback", "docked", "stopped", "start-in-collision",
@@ -81,6 +82,9 @@ class Plan:
     fallbacks_in_row : int
         Plans in a row, this one included, with a status in :data:`FALLBACK_STATUSES` (0 when
         this plan is not a fallback).
+    stall_level : int
+        The stall monitor's ladder level this plan was made at (0: not stalled; see
+        :class:`~dsmpepc_nlp.core.config.StallConfig`).
     """
 
     x: np.ndarray
@@ -96,6 +100,7 @@ class Plan:
     wall_time: float = 0.0
     evaluated: Evaluation | None = field(default=None, repr=False)
     fallbacks_in_row: int = 0
+    stall_level: int = 0
 
     @property
     def z(self) -> np.ndarray:
@@ -144,6 +149,7 @@ class Planner:
             self.nlp = NlpSolver(self.config, self.solver)
         self._previous_target = None
         self._fallbacks, self._warned = 0, False
+        self.stall = StallMonitor(self.config)
 
     def prepare(self, max_objects: int | None = None) -> dict:
         """Compile (or load) everything a plan may need, now: the NLP's problem of every object
@@ -172,9 +178,10 @@ class Planner:
         return self._quick
 
     def reset(self) -> None:
-        """Forget the warm start and the fallback count (a new episode)."""
+        """Forget the warm start, the fallback count and the stall monitor (a new episode)."""
         self._previous_target = None
         self._fallbacks, self._warned = 0, False
+        self.stall.reset()
 
     def plan(self, state: RobotState, world, goal, *, dock: bool = True,
              sample: bool = False) -> Plan:
@@ -221,9 +228,11 @@ class Planner:
         # Every stage runs inside the fallback chain: a stage that raises is reported in the
         # message and the next one takes over; the stop trajectory is the last resort.
         trouble = []
+        level = _attempt(trouble, "the stall monitor", self.stall.update, state, goal) or 0
+        config = self.stall.config_for(level)
         starts = _attempt(trouble, "the starts", structured_starts, state, goal, self.config,
                           self._previous_target, self.solver) or {}
-        cycle = _attempt(trouble, "the cycle", Cycle.prepare, state, world, goal, self.config)
+        cycle = _attempt(trouble, "the cycle", Cycle.prepare, state, world, goal, config)
         plan, evaluated, records = None, None, ()
         if dock and cycle is not None:
             plan = _attempt(trouble, "docking", self._dock, cycle)
@@ -250,13 +259,15 @@ class Planner:
         if trouble:
             plan = _replace(plan, message="; ".join(trouble) + "; " + plan.message,
                             success=False)
+        if level:
+            plan = _replace(plan, message=f"{self.stall.describe(level)}; {plan.message}")
         with np.errstate(all="ignore"):     # a start at 1e300 m overflows; it is no overlap
             overlap = _attempt([], "the overlap", start_overlap, state, world, self.config)
         if overlap:
             plan = _replace(plan, status="start-in-collision", success=False,
                             message=f"{overlap}; {plan.message}")
         plan = _replace(plan, wall_time=time.perf_counter() - started, evaluated=evaluated,
-                        fallbacks_in_row=self._count_fallback(plan))
+                        fallbacks_in_row=self._count_fallback(plan), stall_level=level)
         self._previous_target = (plan.trajectory.target, float(plan.x[3]))
         if self.compile == "background":
             exact.preload()    # once: the compiled kernel loads in a thread after a first plan
@@ -273,22 +284,9 @@ class Planner:
     # -- the pieces of plan() ---------------------------------------------------------------
 
     def _dock(self, cycle: Cycle) -> Plan | None:
-        state, goal = cycle.state, cycle.goal
-        docking = self.config.docking
-        distance = math.hypot(goal[0] - state.x, goal[1] - state.y)
-        if distance > docking.radius or distance == 0.0:
-            return None
-        heading = math.atan2(goal[1] - state.y, goal[0] - state.x)
-        z = z_from_target((goal[0], goal[1], heading), self.config.robot.v_limit, state.pose)
-        z = clip_to_bounds(np.array(z, dtype=float), self.config)
-        ev = evaluate_batch(z, cycle)
-        survival = float(ev.costs.survivability[0, -1])
-        if not survival > docking.min_survival:
-            return None
-        message = (f"docked: the goal is {distance:.2f} m away, within the docking radius "
-                   f"{docking.radius:g} m; heading straight to it (horizon survivability "
-                   f"{survival:.2f} > {docking.min_survival:g})")
-        return self._plan_from(ev, 0, "docked", True, message, 0, ())
+        docked = docking.dock(cycle, self.config)
+        return None if docked is None else self._plan_from(docked[0], 0, "docked", True,
+                                                           docked[1], 0, ())
 
     def _solve_nlp(self, cycle: Cycle, starts) -> tuple:
         """Every NLP start's record with its exact cost."""
@@ -317,7 +315,8 @@ class Planner:
         best = min(usable, key=lambda r: r.exact_cost)
         ev = evaluate_batch(best.z, cycle)
         nit = sum(r.nit for r in records)
-        message = f"NLP: best of {len(records)} starts is '{best.name}' ({best.status})"
+        message = f"NLP: best of {len(records)} starts is '{best.name}' ({best.status})" + (
+            "; no polish: the compiled exact kernel is loading" if self.nlp.polish_skipped else "")
         return self._plan_from(ev, 0, "nlp", True, message, nit, records)
 
     def _from_evaluation(self, evaluated: Evaluation, state, *, fallback: bool, records,
@@ -387,3 +386,4 @@ def _attempt(trouble, stage, function, *args, **kwargs):
 
 def _replace(obj, **changes):
     return dataclasses.replace(obj, **changes)
+

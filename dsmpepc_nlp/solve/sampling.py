@@ -77,6 +77,7 @@ def _unit_sobol(count: int, seed: int) -> np.ndarray:
     return unit
 
 
+@functools.cache
 def _scipy_version() -> str:
     from importlib import metadata
 

@@ -107,8 +107,8 @@ def symbolic(config: PlannerConfig, settings, smoothing: SmoothingConfig | None 
     vector in :func:`names` order); special values stay numbers.
 
     The copies are not validated (their fields are symbols) and live only while a graph is
-    built. ``bounds`` and ``docking`` are None: the graph must not read them, and a read fails
-    loudly instead of building a number into the library.
+    built. ``bounds``, ``docking`` and ``stall`` are None: the graph must not read them, and a
+    read fails loudly instead of building a number into the library.
     """
     index = {name: i for i, name in enumerate(names(config))}
 
@@ -140,6 +140,7 @@ def symbolic(config: PlannerConfig, settings, smoothing: SmoothingConfig | None 
         object.__setattr__(mirror, section, value)
     object.__setattr__(mirror, "bounds", None)
     object.__setattr__(mirror, "docking", None)
+    object.__setattr__(mirror, "stall", None)
     own = _own_smoothing(config, smoothing)
     return mirror, (sections["smoothing"] if own else smoothing)
 

@@ -1,0 +1,114 @@
+"""The product's two extensions for robots that stall: docking that counts the risk until
+arrival, and the stall monitor's ladder (docs/method.md sections 7.1 and 7.5)."""
+
+import dataclasses
+
+import pytest
+
+from dsmpepc_nlp.bench.params import configure
+from dsmpepc_nlp.core.config import (
+    DockingConfig,
+    PlannerConfig,
+    RobotState,
+    SolverConfig,
+    StallConfig,
+)
+from dsmpepc_nlp.core.errors import InputError
+from dsmpepc_nlp.core.world import DynamicObstacle, World
+from dsmpepc_nlp.solve import docking
+from dsmpepc_nlp.solve.cycle import Cycle
+from dsmpepc_nlp.solve.planner import Planner
+from dsmpepc_nlp.solve.stall import StallMonitor
+
+SAMPLING = SolverConfig.sampling(n_samples=64)
+FAR_GOAL = (5.0, 0.0)
+
+
+def person_beside_the_goal():
+    """A person standing 1 m to the side of a goal 0.5 m ahead: at the goal the bodies are
+    0.4 m apart."""
+    return World(obstacles=[DynamicObstacle.pedestrian((0.5, 1.0), (0.0, 0.0), 0.3)])
+
+
+def test_docking_reads_the_survivability_at_arrival_not_at_the_horizons_end():
+    state, goal = RobotState(0.0, 0.0, 0.0), (0.5, 0.0)
+    until_end = PlannerConfig(docking=DockingConfig(arrival_radius=0.0))
+    until_arrival = PlannerConfig()
+    # At the horizon's end the robot has stood 4 s beside the person: 0.89, under 0.9.
+    assert docking.dock(Cycle.prepare(state, person_beside_the_goal(), goal, until_end),
+                        until_end) is None
+    evaluated, message = docking.dock(
+        Cycle.prepare(state, person_beside_the_goal(), goal, until_arrival), until_arrival)
+    step, survival = docking.arrival_survival(evaluated, goal, 0.1)
+    assert 0 < step < until_arrival.horizon.n_steps and survival > 0.9
+    assert survival > evaluated.costs.survivability[0, -1]
+    assert f"until arrival (step {step})" in message
+
+
+def test_the_paper_preset_keeps_the_horizons_end_and_no_ladder():
+    paper = PlannerConfig.paper()
+    assert paper.docking.arrival_radius == 0.0 and paper.stall.levels == 0
+    assert PlannerConfig().docking.arrival_radius > 0 and PlannerConfig().stall.levels > 0
+
+
+def stalled_plans(config, count):
+    planner = Planner(config, SAMPLING)
+    state = RobotState(0.0, 0.0, 0.0)
+    return planner, [planner.plan(state, World(), FAR_GOAL) for _ in range(count)]
+
+
+def test_a_robot_that_does_not_move_climbs_the_ladder_one_window_at_a_time():
+    config = PlannerConfig()
+    window = round(config.stall.window / config.horizon.dt)
+    planner, plans = stalled_plans(config, 3 * window + 6)
+    levels = [p.stall_level for p in plans]
+    assert levels[:window] == [0] * window                  # a first window fills
+    assert levels[window] == 1 and levels[2 * window] == 2 and levels[3 * window] == 3
+    assert max(levels) == config.stall.levels               # never past the top
+    assert "ladder level 3, progress weight x8" in plans[-1].message
+    planner.reset()
+    assert planner.plan(RobotState(0.0, 0.0, 0.0), World(), FAR_GOAL).stall_level == 0
+
+
+def test_the_paper_preset_never_escalates():
+    _, plans = stalled_plans(PlannerConfig.paper(), 25)
+    assert {p.stall_level for p in plans} == {0}
+
+
+def test_progress_puts_the_ladder_back_to_zero_and_arrival_is_no_stall():
+    config = PlannerConfig(stall=StallConfig(window=0.4))       # two plans a window
+    monitor = StallMonitor(config)
+    still = RobotState(0.0, 0.0, 0.0)
+    assert [monitor.update(still, FAR_GOAL) for _ in range(5)] == [0, 0, 1, 1, 2]
+    # The level holds until a whole window shows progress (here 0.2 m a plan).
+    assert monitor.update(RobotState(0.2, 0.0, 0.0), FAR_GOAL) == 2
+    assert monitor.update(RobotState(0.4, 0.0, 0.0), FAR_GOAL) == 0
+    at_goal = StallMonitor(config)
+    assert {at_goal.update(still, (0.05, 0.0)) for _ in range(6)} == {0}
+
+
+def test_a_level_raises_only_the_progress_weight_and_its_configuration_is_kept():
+    config = PlannerConfig()
+    monitor = StallMonitor(config)
+    raised = monitor.config_for(2)
+    assert raised.cost.w_progress == config.cost.w_progress * config.stall.gain ** 2
+    assert dataclasses.replace(raised, cost=config.cost) == config
+    assert monitor.config_for(2) is raised and monitor.config_for(0) is config
+
+
+@pytest.mark.parametrize("changes, field", [
+    (dict(levels=-1), "levels"), (dict(levels=1.5), "levels"), (dict(gain=0.5), "gain"),
+    (dict(window=0.0), "window"), (dict(min_displacement=float("nan")), "min_displacement"),
+])
+def test_bad_stall_settings_are_refused_by_name(changes, field):
+    with pytest.raises(InputError, match=f"StallConfig.{field}|{field}"):
+        StallConfig(**changes)
+
+
+def test_the_command_line_sets_the_ladder_and_the_paper_preset():
+    config = configure({"stall.levels": 1.0, "stall.gain": 3.0}, "ds-mpepc")
+    assert config.stall.levels == 1 and isinstance(config.stall.levels, int)
+    assert config.stall.gain == 3.0
+    assert configure({}, "ds-mpepc", "paper") == PlannerConfig.paper("ds-mpepc")
+    with pytest.raises(InputError, match="whole number"):
+        configure({"stall.levels": 1.5}, "ds-mpepc")
