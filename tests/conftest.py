@@ -22,6 +22,9 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))
 # the sampler answering meanwhile), so that a test's plans do not depend on what the cache held
 # when it started; tests of the background mode set it themselves.
 os.environ.setdefault("DSMPEPC_COMPILE", "wait")
+# Planners re-raise what a stage raises instead of falling back (Planner's ``strict``), so a
+# bug is not hidden by a fallback plan; the tests of the fallbacks ask for strict=False.
+os.environ.setdefault("DSMPEPC_STRICT", "1")
 
 
 @pytest.fixture(autouse=True)

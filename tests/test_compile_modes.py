@@ -35,7 +35,7 @@ def test_background_mode_plans_with_the_sampler_while_the_library_compiles(tmp_p
     config = PlannerConfig(robot=RobotConfig(footprint=((0.1, 0.0, 0.25), (-0.1, 0.0, 0.25))))
     planner = Planner(config, compile="background")
     state, world, goal = (0.0, 0.0, 0.0), World(), (4.0, 0.5)
-    first = planner.plan(state, world, goal)
+    first = planner.plan(state, world, goal, dock=False)
     assert first.status == "sampling-compiling"
     assert "compiling in the background" in first.message
     assert first.success and np.all(np.isfinite(first.x)) and np.isfinite(first.fun)
@@ -47,7 +47,7 @@ def test_background_mode_plans_with_the_sampler_while_the_library_compiles(tmp_p
             break
         time.sleep(0.5)
     assert ready, "the background compile did not finish in 10 minutes"
-    assert planner.plan(state, world, goal).status == "nlp"
+    assert planner.plan(state, world, goal, dock=False).status == "nlp"
 
 
 def test_wait_mode_and_a_bad_mode(monkeypatch):

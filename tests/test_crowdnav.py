@@ -73,8 +73,9 @@ def test_episodes_are_crowdnavs_test_cases(case):
 
 def test_no_deadlock_rule_a_stalled_robot_times_out():
     # a robot too slow to make 0.1 m of progress in 10 s: the loop's rule calls it a deadlock
-    # at 10 s; the CrowdNav protocol (deadlock=False) lets it run to the end: a timeout
+    # at 10 s; the CrowdNav protocol (no deadlock rule) lets it run to the end: a timeout
     from dsmpepc_nlp.core.config import PlannerConfig, RobotConfig, SolverConfig
+    from dsmpepc_nlp.sim.outcomes import OutcomeConfig
     from dsmpepc_nlp.sim.simulate import simulate
     from dsmpepc_nlp.sim.types import Agent, FixedGoal, Scenario
     scenario = Scenario("slow", (Agent("r", RobotState(0.0, 0.0, 0.0), FixedGoal((5.0, 0.0)),
@@ -82,7 +83,8 @@ def test_no_deadlock_rule_a_stalled_robot_times_out():
     solver = SolverConfig.sampling(n_samples=16)
     stalled = simulate(scenario, PlannerConfig(), solver, record_trajectories=False)
     assert stalled.outcomes == ["deadlock"]
-    on = simulate(scenario, PlannerConfig(), solver, record_trajectories=False, deadlock=False)
+    on = simulate(scenario, PlannerConfig(), solver, record_trajectories=False,
+                  outcomes=OutcomeConfig(deadlock=False))
     assert on.outcomes == ["timeout"] and on.outcome_times[0] == pytest.approx(11.0)
 
 

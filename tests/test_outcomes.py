@@ -2,13 +2,16 @@
 
 import pytest
 
+from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.sim.outcomes import (
-    DEADLOCK_PROGRESS,
     OUTCOMES,
+    OutcomeConfig,
     footprint_gap,
     outcome,
     window_progress,
 )
+
+PROGRESS = OutcomeConfig().deadlock_progress
 
 
 def decide(t=1.0, duration=30.0, kind="fixed", collided=False, near=False, progress=None):
@@ -32,9 +35,9 @@ def test_collision_wins_over_everything():
 
 def test_fixed_goal_deadlock_needs_a_full_window_and_too_little_progress():
     assert decide(progress=None) is None                    # window not over yet
-    assert decide(progress=DEADLOCK_PROGRESS - 1e-6) == "deadlock"
-    assert decide(progress=DEADLOCK_PROGRESS) is None       # exactly enough progress
-    assert decide(progress=DEADLOCK_PROGRESS - 1e-6, near=True) == "success"
+    assert decide(progress=PROGRESS - 1e-6) == "deadlock"
+    assert decide(progress=PROGRESS) is None       # exactly enough progress
+    assert decide(progress=PROGRESS - 1e-6, near=True) == "success"
 
 
 def test_fixed_goal_timeout_at_the_end_of_the_duration():
@@ -70,3 +73,14 @@ def test_footprint_gap_is_negative_on_overlap_and_inf_with_nothing():
     assert footprint_gap(a, ra, [[1.0, 0.0]], [0.3]) == pytest.approx(0.4)
     assert footprint_gap(a, ra, [[0.5, 0.0]], [0.3]) == pytest.approx(-0.1)
     assert footprint_gap(a, ra, [], []) == float("inf")
+
+
+def test_the_rules_numbers_are_a_validated_configuration():
+    rules = OutcomeConfig(deadlock_progress=0.5)
+    assert decide(progress=0.4) is None                       # the default asks 0.1 m
+    assert outcome(1.0, 30.0, kind="fixed", collided=False, near=False, progress=0.4,
+                   rules=rules) == "deadlock"
+    with pytest.raises(InputError, match="deadlock_window"):
+        OutcomeConfig(deadlock_window=0.0)
+    with pytest.raises(InputError, match="deadlock"):
+        OutcomeConfig(deadlock=1)

@@ -55,7 +55,8 @@ def test_stopping_says_why(monkeypatch):
         raise MemoryError("injected")
 
     monkeypatch.setattr(planner_module.Cycle, "prepare", boom)
-    plan = Planner(solver=SAMPLING).plan(RobotState(0.3, 1.5, 0.0), walled(), (2.5, 1.5))
+    plan = Planner(solver=SAMPLING, strict=False).plan(RobotState(0.3, 1.5, 0.0), walled(),
+                                                       (2.5, 1.5))
     assert plan.status == "stopped" and "brakes to a stop" in plan.message
     assert plan.fallbacks_in_row == 1
 
@@ -64,7 +65,7 @@ def test_fallbacks_in_a_row_are_counted_and_warned_once(monkeypatch):
     def boom(*args, **kwargs):
         raise MemoryError("injected")
 
-    planner = Planner(solver=SAMPLING)
+    planner = Planner(solver=SAMPLING, strict=False)
     monkeypatch.setattr(planner_module.Cycle, "prepare", boom)
     args = (RobotState(0.3, 1.5, 0.0), walled(), (2.5, 1.5))
     with warnings.catch_warnings(record=True) as caught:

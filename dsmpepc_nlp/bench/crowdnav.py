@@ -56,6 +56,7 @@ import numpy as np
 from ..core.config import PlannerConfig, RobotConfig, RobotState, SolverConfig
 from ..core.errors import InputError
 from ..sim.metrics import DISCOMFORT_GAP, swept_contact_time
+from ..sim.outcomes import OutcomeConfig
 from ..sim.simulate import simulate
 from ..sim.types import Agent, FixedGoal, Scenario
 from ..solve.planner import Planner
@@ -261,6 +262,7 @@ class ObservedPlanner:
 
     def __init__(self, planner, crowd: OrcaCrowd):
         self.planner, self.crowd = planner, crowd
+        self.config = planner.config
 
     def reset(self) -> None:
         self.planner.reset()
@@ -348,7 +350,7 @@ def simulate_episode(settings: CrowdNavSettings, variant: str, episode: int, see
     loop_config = dataclasses.replace(
         config, horizon=dataclasses.replace(config.horizon, dt=TIME_STEP))
     log = simulate(scenario, loop_config, solver, np.random.default_rng([seed, episode]),
-                   planner_factory=factory, deadlock=False, **kwargs)
+                   planner_factory=factory, outcomes=OutcomeConfig(deadlock=False), **kwargs)
     return with_swept_contact(log), crowd
 
 

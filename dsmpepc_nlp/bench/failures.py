@@ -43,6 +43,7 @@ from ..core.errors import InputError
 from ..core.geometry import footprint_points
 from ..core.world import World
 from ..sim.metrics import collision_kind, contact_approach_speed, run_length
+from ..sim.outcomes import OutcomeConfig
 
 CLASSES = ("at-fault", "struck-moving", "struck-stopped", "stalled-near-goal-person",
            "stalled-beside-person", "stalled-in-gap", "stalled-near-goal", "stalled-open",
@@ -51,8 +52,8 @@ CLASSES = ("at-fault", "struck-moving", "struck-stopped", "stalled-near-goal-per
 
 STOPPED_SPEED = 0.05
 """m/s: below this a footprint circle moves under 1 cm per 0.2 s cycle: stopped by any reading."""
-STUCK_WINDOW = 10.0
-"""s: the stuck window, the deadlock rule's own (outcomes.DEADLOCK_WINDOW)."""
+STUCK_WINDOW = OutcomeConfig().deadlock_window
+"""s: the stuck window, the deadlock rule's own."""
 STUCK_SHARE = 0.1
 """Stuck: a net displacement over the window under this share of what the speed limit allows
 (1 m in 10 s at 1 m/s); a robot making a tenth of its possible way is not merely slow."""

@@ -10,10 +10,10 @@ rules can be tested on numbers, without running an episode.
     Fixed goal: the reference point within the goal's tolerance. Follow goal (a moving target):
     decided when the duration ends, at most ``distance + tolerance`` behind the pedestrian.
 ``deadlock``
-    Not at the goal and less than :data:`DEADLOCK_PROGRESS` of progress over the last
-    :data:`DEADLOCK_WINDOW`. Progress toward a fixed goal is the decrease of the robot's own
-    navigation function; toward a moving goal (whose navigation function changes every cycle)
-    it is the path length driven.
+    Not at the goal and less than ``OutcomeConfig.deadlock_progress`` of progress over the
+    last ``OutcomeConfig.deadlock_window``. Progress toward a fixed goal is the decrease of the
+    robot's own navigation function; toward a moving goal (whose navigation function changes
+    every cycle) it is the path length driven.
 ``timeout``
     The duration ended first (a follow goal: ending too far behind).
 """
@@ -21,16 +21,34 @@ rules can be tested on numbers, without running an episode.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
+
+from ..core.config import _fail, _validate_fields
 
 OUTCOMES = ("success", "collision", "deadlock", "timeout")
 """Per-robot outcomes (docs/method.md section 7.3)."""
 
-DEADLOCK_WINDOW = 10.0
-"""Seconds over which progress is measured for ``deadlock`` (docs/method.md section 7.3)."""
-DEADLOCK_PROGRESS = 0.1
-"""Less progress than this (m) over the window is a deadlock (docs/method.md section 7.3)."""
+
+@dataclass(frozen=True)
+class OutcomeConfig:
+    """The numbers of the outcome rules (docs/method.md section 7.3; ours: the paper names
+    deadlocks but gives no test)."""
+
+    deadlock: bool = True
+    """Apply the deadlock rule; False: a stalled robot runs on until the duration ends (a
+    protocol without that rule, such as CrowdNav's, calls it a timeout)."""
+    deadlock_window: float = 10.0
+    """Seconds over which progress is measured for ``deadlock``."""
+    deadlock_progress: float = 0.1
+    """Less progress than this (m) over the window is a deadlock."""
+
+    def __post_init__(self):
+        if not isinstance(self.deadlock, bool):
+            _fail("OutcomeConfig", "deadlock", self.deadlock, "True or False")
+        _validate_fields(self, {"deadlock_window": dict(low=0.0, low_open=True),
+                                "deadlock_progress": dict(low=0.0)})
 
 
 def window_progress(history, window: int, kind: str) -> float | None:
@@ -42,7 +60,7 @@ def window_progress(history, window: int, kind: str) -> float | None:
         One value per state so far: the navigation-function value at the robot (``kind ==
         "fixed"``, progress is its decrease) or the cumulative path length (``"follow"``).
     window : int
-        Cycles in the deadlock window (``round(DEADLOCK_WINDOW / dt)``).
+        Cycles in the deadlock window (``round(OutcomeConfig.deadlock_window / dt)``).
     kind : str
         ``"fixed"`` or ``"follow"``.
     """
@@ -54,7 +72,7 @@ def window_progress(history, window: int, kind: str) -> float | None:
 
 
 def outcome(t: float, duration: float, *, kind: str, collided: bool, near: bool,
-            progress: float | None) -> str | None:
+            progress: float | None, rules: OutcomeConfig = OutcomeConfig()) -> str | None:
     """The outcome decided at time ``t`` for a robot without one yet, or None (keep going).
 
     Parameters
@@ -70,8 +88,11 @@ def outcome(t: float, duration: float, *, kind: str, collided: bool, near: bool,
         followed pedestrian.
     progress : float or None
         :func:`window_progress` (None: the window has not passed yet).
+    rules : OutcomeConfig
+        The deadlock rule's numbers (its switch is applied by the caller, which passes
+        ``progress=None`` when it is off).
     """
-    stalled = progress is not None and progress < DEADLOCK_PROGRESS
+    stalled = progress is not None and progress < rules.deadlock_progress
     ended = t >= duration - 1e-9
     if collided:
         return "collision"

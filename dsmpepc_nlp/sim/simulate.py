@@ -8,15 +8,16 @@ with an outcome (:mod:`.outcomes`, decided after every step) stops where it is a
 as a static obstacle for the others.
 
 The planner is whatever ``planner_factory(config, solver)`` builds (default
-:class:`~dsmpepc_nlp.solve.planner.Planner`): anything with ``plan(state, world, goal, *, dock,
-sample)`` returning a plan-like object drives a robot, which is how the ORCA baseline runs in
-the very same loop. The scenario types live in :mod:`.types` (re-exported here).
+:class:`~dsmpepc_nlp.solve.planner.Planner`): any
+:class:`~dsmpepc_nlp.solve.policy.PlanningPolicy` drives a robot, which is how the ORCA
+baseline runs in the very same loop. The scenario types live in :mod:`.types` (re-exported here).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -27,12 +28,12 @@ from ..core.errors import InputError
 from ..core.geometry import footprint_points
 from ..core.world import DynamicObstacle, World
 from ..solve.planner import STATUSES, Planner
+from ..solve.policy import PlanningPolicy
 from .checks import start_states
 from .episode import Episode, config_to_dict, robot_obstacle
 from .outcomes import (  # noqa: F401 (re-exported)
-    DEADLOCK_PROGRESS,
-    DEADLOCK_WINDOW,
     OUTCOMES,
+    OutcomeConfig,
     footprint_gap,
     outcome,
     window_progress,
@@ -87,8 +88,8 @@ class _Loop:
     """The state of one episode while it runs: robots, pedestrians, outcomes and history."""
 
     def __init__(self, scenario: Scenario, config: PlannerConfig, solver: SolverConfig, rng,
-                 planner_factory, deadlock=True):
-        self.scenario, self.dt, self.deadlock = scenario, config.horizon.dt, bool(deadlock)
+                 planner_factory, rules: OutcomeConfig):
+        self.scenario, self.dt, self.rules = scenario, config.horizon.dt, rules
         self.agents = agents = scenario.agents
         self.n = len(agents)
         if self.n == 0:
@@ -110,7 +111,7 @@ class _Loop:
         self.parked = [DynamicObstacle.robot(p.pose, (0.0, 0.0), p.footprint)
                        for p in scenario.parked]
         self.peds = scenario.pedestrians
-        self.window = int(round(DEADLOCK_WINDOW / self.dt))
+        self.window = int(round(rules.deadlock_window / self.dt))
         self.times = [0.0]
         self.hist_states = [[s.copy()] for s in self.states]
         ped_pos, ped_vel = self.ped_now(0.0)
@@ -178,7 +179,8 @@ class _Loop:
             result = outcome(t, self.scenario.duration, kind=goal.kind,
                              collided=self.collided(i, points, radii, ped_pos), near=bool(near),
                              progress=window_progress(self.progress_ref[i], self.window,
-                                                      goal.kind) if self.deadlock else None)
+                                                      goal.kind) if self.rules.deadlock else None,
+                             rules=self.rules)
             if result is not None:
                 new[i] = result
         for i, result in new.items():
@@ -246,7 +248,9 @@ def _best_samples(evaluated, max_samples) -> tuple:
 
 def simulate(scenario: Scenario, config: PlannerConfig, solver: SolverConfig, rng=None, *,
              record_trajectories: bool = True, record_samples=(), max_samples: int = 512,
-             progress=None, planner_factory=Planner, deadlock: bool = True) -> Episode:
+             progress=None,
+             planner_factory: Callable[..., PlanningPolicy] = Planner,
+             outcomes: OutcomeConfig | None = None) -> Episode:
     """Run ``scenario`` in closed loop with every agent planning by ``config`` and ``solver``.
 
     Parameters
@@ -270,10 +274,9 @@ def simulate(scenario: Scenario, config: PlannerConfig, solver: SolverConfig, rn
     planner_factory : callable, optional
         ``planner_factory(config, solver)`` builds each robot's planner (default
         :class:`~dsmpepc_nlp.solve.planner.Planner`; the ORCA baseline passes its own).
-    deadlock : bool
-        Apply the deadlock rule (docs/method.md section 7.3); False: a stalled robot runs on
-        until the duration ends (a protocol without that rule, such as CrowdNav's, calls it a
-        timeout).
+    outcomes : OutcomeConfig, optional
+        The outcome rules' numbers and the deadlock rule's switch (docs/method.md section 7.3;
+        CrowdNav's protocol turns the rule off: a stalled robot times out).
 
     Returns
     -------
@@ -284,7 +287,8 @@ def simulate(scenario: Scenario, config: PlannerConfig, solver: SolverConfig, rn
         raise TypeError(f"rng = {rng!r}: must be a numpy.random.Generator")
     n_cycles = max(1, int(math.ceil(scenario.duration / config.horizon.dt - 1e-9)))
     record_samples = set(int(k) for k in record_samples)
-    loop = _Loop(scenario, config, solver, rng, planner_factory, deadlock)
+    loop = _Loop(scenario, config, solver, rng, planner_factory,
+                 OutcomeConfig() if outcomes is None else outcomes)
     log = _Log(loop.n, config.horizon.n_steps)
     samples = {}
     loop.decide(0.0, loop.hist_ped[0][0])

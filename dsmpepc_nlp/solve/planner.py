@@ -125,6 +125,10 @@ class Planner:
 
     compile : str, optional
         One of :data:`COMPILE_MODES` (default: ``$DSMPEPC_COMPILE``, else ``background``).
+    strict : bool, optional
+        Re-raise an exception of any stage of :meth:`plan` instead of falling back to the
+        next (default: ``$DSMPEPC_STRICT`` set to ``1``; the test suite runs strict, so that a
+        bug is not hidden by a fallback plan). A robot's loop wants the default, False.
 
     The NLP solver is built here, once; the compiled problem of each object bucket is loaded
     on first use (or by :meth:`prepare`), and :meth:`plan` only sets parameters. A plan never
@@ -132,7 +136,7 @@ class Planner:
     """
 
     def __init__(self, config: PlannerConfig | None = None, solver: SolverConfig | None = None,
-                 *, compile: str | None = None):
+                 *, compile: str | None = None, strict: bool | None = None):
         self.config = PlannerConfig() if config is None else config
         self.solver = SolverConfig() if solver is None else solver
         mode = os.environ.get("DSMPEPC_COMPILE", "background") if compile is None else compile
@@ -140,6 +144,7 @@ class Planner:
             raise InputError(f"compile = {mode!r} (or $DSMPEPC_COMPILE): must be one of "
                              f"{', '.join(COMPILE_MODES)}")
         self.compile = mode
+        self.strict = os.environ.get("DSMPEPC_STRICT", "") == "1" if strict is None else strict
         self._quick = None
         if mode == "background":
             exact.defer()      # the first plan on the numpy path; numba loads after it
@@ -198,7 +203,8 @@ class Planner:
         dock : bool
             Dock at a fixed goal within ``config.docking.radius`` (False for moving goals).
         sample : bool
-            Also run the sampler when the NLP succeeds (for cross-checks and plots).
+            Also run the sampler when the NLP or docking made the plan (for cross-checks and
+            plots).
 
         Returns
         -------
@@ -228,41 +234,41 @@ class Planner:
         # Every stage runs inside the fallback chain: a stage that raises is reported in the
         # message and the next one takes over; the stop trajectory is the last resort.
         trouble = []
-        level = _attempt(trouble, "the stall monitor", self.stall.update, state, goal) or 0
+        level = self._try(trouble, "the stall monitor", self.stall.update, state, goal) or 0
         config = self.stall.config_for(level)
-        starts = _attempt(trouble, "the starts", structured_starts, state, goal, self.config,
+        starts = self._try(trouble, "the starts", structured_starts, state, goal, self.config,
                           self._previous_target, self.solver) or {}
-        cycle = _attempt(trouble, "the cycle", Cycle.prepare, state, world, goal, config)
+        cycle = self._try(trouble, "the cycle", Cycle.prepare, state, world, goal, config)
         plan, evaluated, records = None, None, ()
         if dock and cycle is not None:
-            plan = _attempt(trouble, "docking", self._dock, cycle)
+            plan = self._try(trouble, "docking", self._dock, cycle)
         compiling = ""
         if plan is None and self.nlp is not None and cycle is not None \
                 and self.compile == "background":
-            _, compiling = _attempt(trouble, "the NLP's readiness", self.nlp.readiness,
+            _, compiling = self._try(trouble, "the NLP's readiness", self.nlp.readiness,
                                     cycle) or (True, "")
         if plan is None and self.nlp is not None and cycle is not None and not compiling:
-            records = _attempt(trouble, "the NLP", self._solve_nlp, cycle, starts) or ()
-            plan = _attempt(trouble, "the NLP's verdict", self._choose_nlp, records, cycle)
-            if sample:
-                evaluated = _attempt(trouble, "the sampler", self.sampler.search, cycle, starts)
+            records = self._try(trouble, "the NLP", self._solve_nlp, cycle, starts) or ()
+            plan = self._try(trouble, "the NLP's verdict", self._choose_nlp, records, cycle)
         if plan is None and cycle is not None:
             sampler = self.sampler if not compiling else self._quick_sampler()
-            evaluated = evaluated or _attempt(trouble, "the sampler", sampler.search,
+            evaluated = evaluated or self._try(trouble, "the sampler", sampler.search,
                                               cycle, starts)
             if evaluated is not None:
-                plan = _attempt(trouble, "the sampled verdict", self._from_evaluation,
+                plan = self._try(trouble, "the sampled verdict", self._from_evaluation,
                                 evaluated, state, fallback=self.nlp is not None, records=records,
                                 compiling=compiling)
         if plan is None:
             plan = self._stop(state, records)
+        elif sample and evaluated is None and cycle is not None:    # docked or the NLP's
+            evaluated = self._try(trouble, "the sampler", self.sampler.search, cycle, starts)
         if trouble:
             plan = _replace(plan, message="; ".join(trouble) + "; " + plan.message,
                             success=False)
         if level:
             plan = _replace(plan, message=f"{self.stall.describe(level)}; {plan.message}")
         with np.errstate(all="ignore"):     # a start at 1e300 m overflows; it is no overlap
-            overlap = _attempt([], "the overlap", start_overlap, state, world, self.config)
+            overlap = self._try([], "the overlap", start_overlap, state, world, self.config)
         if overlap:
             plan = _replace(plan, status="start-in-collision", success=False,
                             message=f"{overlap}; {plan.message}")
@@ -272,6 +278,17 @@ class Planner:
         if self.compile == "background":
             exact.preload()    # once: the compiled kernel loads in a thread after a first plan
         return plan
+
+    def _try(self, trouble, stage, function, *args, **kwargs):
+        """A stage of :meth:`plan`: ``function(*args, **kwargs)``; when it raises, None and a
+        line in ``trouble`` (the next stage takes over), or, with ``strict``, the exception."""
+        try:
+            return function(*args, **kwargs)
+        except Exception as error:  # noqa: BLE001 - a failing stage must not stop planning
+            if self.strict:
+                raise
+            trouble.append(f"{stage} raised {type(error).__name__}: {error}")
+            return None
 
     def _count_fallback(self, plan: Plan) -> int:
         self._fallbacks = self._fallbacks + 1 if plan.status in FALLBACK_STATUSES else 0
@@ -373,15 +390,6 @@ def _control(trajectory: Trajectory, config: PlannerConfig) -> tuple:
         return (0.0, 0.0)
     return (min(max(v, 0.0), robot.v_limit),
             min(max(omega, -robot.omega_limit), robot.omega_limit))
-
-
-def _attempt(trouble, stage, function, *args, **kwargs):
-    """``function(*args, **kwargs)``, or None with a line in ``trouble`` when it raises."""
-    try:
-        return function(*args, **kwargs)
-    except Exception as error:  # noqa: BLE001 - a failing stage must not stop planning
-        trouble.append(f"{stage} raised {type(error).__name__}: {error}")
-        return None
 
 
 def _replace(obj, **changes):

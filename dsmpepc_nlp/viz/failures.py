@@ -17,7 +17,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
 from ..core.files import atomic_savefig
-from ..sim.outcomes import DEADLOCK_WINDOW as STUCK_WINDOW
+from ..sim.outcomes import OutcomeConfig
 from .plots import _footprint, _limits, draw_cost_panel, draw_map
 
 EVIDENCE_KEYS = ("collision_kind", "touched", "robot_speed", "approach_speed", "net_displacement",
@@ -41,7 +41,7 @@ def draw_scene(ax, episode, failure: dict, label: str, evidence: bool = True) ->
     robot, k = failure["robot"], failure["cycle"]
     end = min(episode.n_cycles,
               int(np.searchsorted(episode.times, episode.outcome_times[robot] - 1e-9)))
-    window = int(round(STUCK_WINDOW / episode.dt)) + 1
+    window = int(round(OutcomeConfig().deadlock_window / episode.dt)) + 1
     path = episode.states[robot, :end + 1, :2]
     ax.plot(path[:, 0], path[:, 1], color="tab:blue", lw=1.2, zorder=3)
     ax.plot(path[-window:, 0], path[-window:, 1], color="darkorange", lw=3, zorder=3)
