@@ -17,7 +17,8 @@ from .core.control_law import Trajectory, rollout, rollout_function
 from .core.costs import CostBreakdown, evaluate
 from .core.errors import InputError
 from .core.world import DynamicObstacle, NavigationFunction, OccupancyGrid, World
-from .solve.planner import Plan, Planner, StartRecord
+from .solve.planner import Plan, Planner
+from .solve.records import StartRecord
 
 __all__ = [
     "BoundsConfig", "ControlLawConfig", "CostBreakdown", "CostConfig", "DockingConfig",

@@ -8,7 +8,7 @@ import pytest
 import yaml
 
 from dsmpepc_nlp.cli import main
-from dsmpepc_nlp.sim.simulate import Episode
+from dsmpepc_nlp.sim.episode import Episode
 
 TINY = {
     "name": "tiny",
@@ -156,7 +156,7 @@ def test_every_benchmark_checks_its_numbers(argv, option, tmp_path, capsys):
 
 
 def test_the_text_summary_prints_nested_results_as_lines_not_json():
-    from dsmpepc_nlp.bench.commands import summary_text
+    from dsmpepc_nlp.bench.summary import summary_text
 
     text = summary_text({"runs": 4, "variants": {"circle-4": {"runs": 4, "success_rate": 0.5,
                                                               "time": float("nan")}}})

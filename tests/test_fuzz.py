@@ -14,7 +14,8 @@ from hypothesis import strategies as st
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotConfig, RobotState, SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
-from dsmpepc_nlp.sim.simulate import OUTCOMES, simulate
+from dsmpepc_nlp.sim.outcomes import OUTCOMES
+from dsmpepc_nlp.sim.simulate import simulate
 from dsmpepc_nlp.sim.types import Agent, FixedGoal, Pedestrian, Scenario
 from dsmpepc_nlp.solve.planner import Planner
 

@@ -6,8 +6,9 @@ import os
 
 import pytest
 
-from dsmpepc_nlp.bench import results
-from dsmpepc_nlp.bench.results import ResultTable, atomic_write_text, parse_indices
+from dsmpepc_nlp.bench.results import ResultTable, parse_indices
+from dsmpepc_nlp.core import jsonio
+from dsmpepc_nlp.core.files import atomic_write_text
 
 
 def test_atomic_write_leaves_old_file_and_no_temp_on_error(tmp_path, monkeypatch):
@@ -76,7 +77,7 @@ def test_parse_indices():
 def test_json_clean_handles_numpy():
     import numpy as np
 
-    assert results.json_clean({"a": np.float64("inf"), "b": [np.int64(3)]}) == {"a": None,
+    assert jsonio.json_clean({"a": np.float64("inf"), "b": [np.int64(3)]}) == {"a": None,
                                                                                 "b": [3]}
 
 

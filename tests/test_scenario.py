@@ -208,7 +208,7 @@ def walled_scenario(tmp_path, start_noise):
 def test_start_noise_is_applied_before_the_free_space_checks(tmp_path):
     # Each start is 0.2 m from the wall and 0.02 m from the other robot: with 0.3 m of noise
     # most draws collide, and every start handed to the simulator is in free space.
-    from dsmpepc_nlp.sim.scenario import start_conflict, start_states
+    from dsmpepc_nlp.sim.checks import start_conflict, start_states
 
     scenario = walled_scenario(tmp_path, 0.3)
     for seed in range(20):
@@ -220,7 +220,7 @@ def test_start_noise_is_applied_before_the_free_space_checks(tmp_path):
 
 
 def test_start_noise_with_no_free_draw_is_an_error(tmp_path):
-    from dsmpepc_nlp.sim.scenario import start_states
+    from dsmpepc_nlp.sim.checks import start_states
 
     scenario = walled_scenario(tmp_path, 0.3)
     boxed = np.ones((40, 40), bool)

@@ -5,6 +5,7 @@ import json
 import pytest
 
 from dsmpepc_nlp import cli
+from dsmpepc_nlp.bench import params as bench_params
 from dsmpepc_nlp.bench import sweep
 
 TINY = """name: tiny
@@ -33,14 +34,14 @@ SETTINGS = sweep.SweepSettings(solver="sampling", n_samples=32)
 
 
 def test_parse_and_expand():
-    params = sweep.parse_params(["s_ttc=0.25,0.5,1", "s_ttg=1e-3,1e-2", "robot.v_limit=1"])
+    params = bench_params.parse_params(["s_ttc=0.25,0.5,1", "s_ttg=1e-3,1e-2", "robot.v_limit=1"])
     assert params == {"s_ttc": [0.25, 0.5, 1.0], "s_ttg": [0.001, 0.01],
                       "robot.v_limit": [1.0]}
     runs = sweep.expand_grid(params, ["a", "b"], [0, 1, 2])
     assert len(runs) == 3 * 2 * 1 * 2 * 3
     assert runs[0] == {"params": {"s_ttc": 0.25, "s_ttg": 0.001, "robot.v_limit": 1.0},
                        "scenario": "a", "seed": 0}
-    config = sweep.configure({"s_ttc": 0.25, "robot.v_limit": 1.5}, "mpepc")
+    config = bench_params.configure({"s_ttc": 0.25, "robot.v_limit": 1.5}, "mpepc")
     assert config.cost.s_ttc == 0.25 and config.robot.v_limit == 1.5
     assert not config.anticipatory_pc
 
@@ -50,7 +51,7 @@ def test_parse_and_expand():
     ("wheels.x=1", "section 'wheels'")])
 def test_bad_params_are_errors(spec, problem):
     with pytest.raises(ValueError, match=problem):
-        sweep.parse_params([spec])
+        bench_params.parse_params([spec])
 
 
 def test_failed_run_is_recorded_and_resume_skips_done(tmp_path, tiny):

@@ -33,7 +33,7 @@ from . import barn, claims, crowdnav, crowds, sweep
 from .crosscheck import crosscheck
 from .params import PRESETS, overrides, parse_ipopt_options, parse_params, preset_config
 from .results import parse_indices
-from .summary import fmt, summarised, summary_text  # noqa: F401 (summary_text re-exported)
+from .summary import fmt, summarised
 from .timing import run_bench
 
 SOLVERS = ("nlp", "fast", "sampling")

@@ -20,8 +20,8 @@ import json
 from pathlib import Path
 
 from ..core.errors import InputError
-from ..core.files import atomic_savefig, atomic_write_bytes, atomic_write_text  # noqa: F401
-from ..core.jsonio import dumps, json_clean  # noqa: F401 (re-exported)
+from ..core.files import atomic_write_text
+from ..core.jsonio import dumps, json_clean
 
 TABLE_FORMAT = 1
 """Version of the JSON layout written by :class:`ResultTable`."""

@@ -28,7 +28,7 @@ from ..sim.scenario import load_scenario
 from ..sim.simulate import simulate
 from ..viz import figures
 from .orca import check_variants, simulate_orca
-from .params import SECTIONS, configure, parse_params  # noqa: F401 (re-exported)
+from .params import configure
 from .results import ResultTable, keep_failure
 from .runner import mean, outcome_rates, plan_time_summary, run_all
 

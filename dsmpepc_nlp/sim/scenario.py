@@ -52,7 +52,7 @@ from ..core.config import RobotConfig, RobotState
 from ..core.errors import MAX_COORDINATE, MAX_DURATION, MAX_SIZE, MAX_SPEED, InputError, shown
 from ..core.files import load_yaml
 from ..core.world import OccupancyGrid
-from .checks import START_DRAWS, check_against_map, start_conflict, start_states  # noqa: F401
+from .checks import check_against_map, start_conflict
 from .types import Agent, FixedGoal, FollowGoal, ParkedRobot, Pedestrian, Scenario
 
 SCENARIO_DIR = Path(__file__).resolve().parent.parent / "scenarios"

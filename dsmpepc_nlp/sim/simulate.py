@@ -31,8 +31,7 @@ from ..solve.planner import STATUSES, Planner
 from ..solve.policy import PlanningPolicy
 from .checks import start_states
 from .episode import Episode, config_to_dict, robot_obstacle
-from .outcomes import (  # noqa: F401 (re-exported)
-    OUTCOMES,
+from .outcomes import (
     OutcomeConfig,
     footprint_gap,
     outcome,

@@ -18,7 +18,6 @@ from ..core.errors import InputError
 from . import docking, exact
 from .cycle import Cycle
 from .nlp import NlpSolver
-from .records import StartRecord  # noqa: F401 (re-exported: Plan.starts holds them)
 from .sampling import Evaluation, SamplingPlanner, clip_to_bounds, evaluate_batch, structured_starts
 from .stall import StallMonitor
 from .starting import as_state, start_overlap

@@ -115,12 +115,8 @@ class Evaluation:
         return int(np.argmin(total))
 
 
-PAIR_BUDGET = SolverConfig.pair_budget
-"""Default of :attr:`SolverConfig.pair_budget` (kept for importers of the old constant)."""
-
-
 def evaluate_batch(z, cycle: Cycle, compiled: bool | None = None,
-                   pair_budget: int = PAIR_BUDGET,
+                   pair_budget: int = SolverConfig.pair_budget,
                    parallel_rows: int = SolverConfig.parallel_rows) -> Evaluation:
     """Roll out and cost every row of ``z`` (n, 4) exactly.
 
@@ -141,7 +137,7 @@ def evaluate_batch(z, cycle: Cycle, compiled: bool | None = None,
 
 
 def exact_totals(z, cycle: Cycle, parallel_rows: int = SolverConfig.parallel_rows,
-                 pair_budget: int = PAIR_BUDGET) -> np.ndarray:
+                 pair_budget: int = SolverConfig.pair_budget) -> np.ndarray:
     """The exact total cost of every row of ``z`` (n, 4): ``evaluate_batch(...).costs.total``
     to the bit, without the rollouts and the breakdown when the compiled kernel runs
     (:func:`~dsmpepc_nlp.solve.exact.total_costs`)."""
