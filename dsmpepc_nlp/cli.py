@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from .bench import commands, failure_report
+from .bench.commands import SOLVERS
 from .bench.params import PRESETS, preset_config
 from .core import options
 from .core.config import VARIANTS
@@ -34,8 +35,6 @@ from .sim.scenario import builtin_names, load_scenario
 from .sim.simulate import simulate
 from .solve.exact import build as build_exact
 from .viz import figures
-
-SOLVERS = ("nlp", "sampling", "fast")
 
 DEFAULT_SAMPLE_CYCLES = 5
 """Cycles per robot whose evaluated trajectories a run records for its figure."""

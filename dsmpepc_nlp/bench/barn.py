@@ -56,7 +56,7 @@ START = (-2.25, 3.0, math.pi / 2)
 """Start pose (x m, y m, heading rad): run.py's INIT_POSITION."""
 GOAL = (-2.25, 13.0)
 """Goal, m: the start plus run.py's relative GOAL_POSITION (0, 10)."""
-GOAL_TOLERANCE = 1.0
+SUCCESS_RADIUS = 1.0
 """Success radius, m."""
 TIME_LIMIT = 100.0
 """Time limit, s."""
@@ -240,7 +240,7 @@ def load_world(data_dir, index: int, resolution: float = DEFAULT_RESOLUTION) -> 
 
 def scenario(world: BarnWorld, robot: RobotConfig | None = None, time_limit=TIME_LIMIT):
     """The challenge run on ``world`` as a :class:`~dsmpepc_nlp.sim.types.Scenario`."""
-    agent = Agent("jackal", RobotState(*START), FixedGoal(GOAL, GOAL_TOLERANCE),
+    agent = Agent("jackal", RobotState(*START), FixedGoal(GOAL, SUCCESS_RADIUS),
                   robot=robot or jackal_robot())
     return Scenario(name=f"barn-{world.index}", agents=(agent,), grid=world.occupancy,
                     duration=float(time_limit), description="BARN Challenge world")

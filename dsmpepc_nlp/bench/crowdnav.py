@@ -6,7 +6,7 @@ Square crossing: humans start on one side of a ``SQUARE_WIDTH`` square (left or 
 coin) and walk to a uniform point of the other half. In both, a human is redrawn while its start
 (and goal) is closer than ``radius + other radius + DISCOMFORT_DIST`` to a start (goal) of the
 robot or of a human already placed, as CrowdNav does. The robot starts at ``(0, -4)`` facing
-``+y`` and must reach ``(0, 4)`` within ``GOAL_TOLERANCE`` (CrowdNav's robot radius) by
+``+y`` and must reach ``(0, 4)`` within ``SUCCESS_RADIUS`` (CrowdNav's robot radius) by
 ``DURATION``.
 
 Humans (radius 0.3 m, preferred speed 1 m/s) are driven by ORCA (``pyrvo``) with CrowdNav's
@@ -89,7 +89,7 @@ DURATION = TIME_LIMIT - 1.0
 """Episode length, s: CrowdNav declares a timeout once ``global_time >= time_limit - 1``."""
 CASE_OFFSET = 1000
 """CrowdNav seeds test case ``k`` with ``1000 + k`` (its validation cases take 0-999)."""
-GOAL_TOLERANCE = 0.3
+SUCCESS_RADIUS = 0.3
 """Success radius, m (CrowdNav: within the robot radius of the goal)."""
 ROBOT_START = (0.0, -CIRCLE_RADIUS)
 ROBOT_GOAL = (0.0, CIRCLE_RADIUS)
@@ -315,7 +315,7 @@ def episode_scenario(settings: CrowdNavSettings, episode: int, seed: int, robot=
     crowd = OrcaCrowd(starts, goals, visible=settings.setting == "visible",
                       robot_radius=robot.bounding_radius)
     agent = Agent("robot", RobotState(*ROBOT_START, math.pi / 2),
-                  FixedGoal(ROBOT_GOAL, GOAL_TOLERANCE), robot=robot)
+                  FixedGoal(ROBOT_GOAL, SUCCESS_RADIUS), robot=robot)
     scenario = Scenario(name=f"crowdnav-{settings.scene}-{settings.setting}-{seed}-{episode}",
                         agents=(agent,), pedestrians=crowd.members(),
                         duration=float(settings.duration),
