@@ -6,6 +6,7 @@ import functools
 import math
 import os
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -51,13 +52,24 @@ def structured_starts(state: RobotState, goal, config: PlannerConfig,
     return {name: clip_to_bounds(z, config) for name, z in starts.items()}
 
 
+SHIPPED_SOBOL = Path(__file__).with_name("sobol4.npy")
+"""The first 4096 points of the sequences of seeds 0 and 1, shipped (``tools/make_sobol.py``)."""
+
+
 @functools.lru_cache(maxsize=16)
 def _unit_sobol(count: int, seed: int) -> np.ndarray:
     """``count`` points of the scrambled Sobol sequence of ``seed`` in the unit 4-cube.
 
-    Kept on disk in the cache (``sobol`` entries, a few kB each): scipy's ``qmc`` module comes
-    with the whole of ``scipy.stats``, ~0.35 s of imports that a robot's first plan would pay.
+    Seeds 0 and 1 up to 4096 points (every default) are read from the package's
+    :data:`SHIPPED_SOBOL`: scipy's ``qmc`` module comes with the whole of ``scipy.stats``,
+    ~0.35 s of imports that a robot's first plan would pay. Others are drawn once and kept in
+    the cache (``sobol`` entries, a few kB each).
     """
+    if seed in (0, 1) and count <= 4096:
+        try:
+            return np.load(SHIPPED_SOBOL)[seed, :count].copy()
+        except (OSError, ValueError):
+            pass
     path = cache_dir("sobol") / f"sobol4-{count}-{seed}-scipy{_scipy_version()}.npy"
     try:
         unit = np.load(path)
