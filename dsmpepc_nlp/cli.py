@@ -22,10 +22,9 @@ from pathlib import Path
 import numpy as np
 
 from .bench import commands, failure_report
-from .bench.commands import SOLVERS
 from .bench.params import PRESETS, preset_config
 from .core import options
-from .core.config import VARIANTS
+from .core.config import SOLVER_NAMES, VARIANTS
 from .core.errors import InputError
 from .core.jsonio import json_clean
 from .core.progress import EpisodeProgress
@@ -191,7 +190,7 @@ def _scenario_options(p, *, variant=True):
     p.add_argument("scenario", help="built-in name (see 'list') or path of a YAML file")
     if variant:
         p.add_argument("--variant", choices=list(VARIANTS), default="ds-mpepc")
-    p.add_argument("--solver", choices=SOLVERS, default="nlp",
+    p.add_argument("--solver", choices=SOLVER_NAMES, default="nlp",
                    help="nlp (IPOPT, default), fast (trust-region Newton) or sampling")
     p.add_argument("--seed", type=options.seed, default=0, help="seed of the start perturbations")
     p.add_argument("--preset", choices=PRESETS, default="product",

@@ -7,10 +7,15 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SmoothingConfig, SolverConfig
+from dsmpepc_nlp.core.config import (
+    TERM_NAMES,
+    PlannerConfig,
+    RobotState,
+    SmoothingConfig,
+    SolverConfig,
+)
 from dsmpepc_nlp.core.control_law import rollout
 from dsmpepc_nlp.core.costs import (
-    TERM_NAMES,
     assemble,
     collision_probability,
     disk_inverse_ttc,

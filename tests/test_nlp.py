@@ -8,9 +8,15 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SmoothingConfig, SolverConfig
+from dsmpepc_nlp.core.config import (
+    TERM_NAMES,
+    PlannerConfig,
+    RobotState,
+    SmoothingConfig,
+    SolverConfig,
+)
 from dsmpepc_nlp.core.control_law import rollout
-from dsmpepc_nlp.core.costs import TERM_NAMES, assemble, evaluate, exact_geometry
+from dsmpepc_nlp.core.costs import assemble, evaluate, exact_geometry
 from dsmpepc_nlp.core.smooth import CASADI
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 from dsmpepc_nlp.solve import nlp_global

@@ -9,9 +9,9 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.core.config import HorizonConfig, PlannerConfig, SmoothingConfig
+from dsmpepc_nlp.core.config import TERM_NAMES, HorizonConfig, PlannerConfig, SmoothingConfig
 from dsmpepc_nlp.core.control_law import rollout
-from dsmpepc_nlp.core.costs import TERM_NAMES, evaluate
+from dsmpepc_nlp.core.costs import evaluate
 from dsmpepc_nlp.solve import cache, compiled
 from dsmpepc_nlp.solve import nlp_global as g
 from dsmpepc_nlp.solve.cycle import Cycle

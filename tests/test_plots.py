@@ -93,3 +93,15 @@ def test_the_caption_tells_at_fault_from_struck(monkeypatch):
                               outcome_times=[2.5, 9.0])
     assert plots.outcome_caption(episode) == ("outcome: a: collision (struck) at t = 2.5 s; "
                                               "b: success at t = 9.0 s")
+
+
+def test_people_parked_off_the_stage_are_left_out_of_lines_and_limits():
+    """A replayed recording parks pedestrians at 1e4 m before and after their tracks: the
+    figures break their lines there and keep the axes on the scene."""
+    from types import SimpleNamespace
+
+    scene = SimpleNamespace(states=np.zeros((1, 3, 5)), goals=np.array([[[4.0, 0.0]] * 3]))
+    points = np.array([[1.0, 1.0], [1.0e4, 1.0e4], [12.0, 0.0], [15.0, 0.0]])
+    kept = plots.on_stage(scene, points)
+    assert np.array_equal(kept[[0, 2]], points[[0, 2]])      # within 10 m of the robot's area
+    assert np.all(np.isnan(kept[[1, 3]]))

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from dsmpepc_nlp.core.config import (
+    TERM_NAMES,
     ControlLawConfig,
     CostConfig,
     HorizonConfig,
@@ -16,7 +17,7 @@ from dsmpepc_nlp.core.config import (
     SolverConfig,
 )
 from dsmpepc_nlp.core.control_law import rollout
-from dsmpepc_nlp.core.costs import TERM_NAMES, evaluate
+from dsmpepc_nlp.core.costs import evaluate
 from dsmpepc_nlp.solve import cache, compiled, settings
 from dsmpepc_nlp.solve import nlp_global as g
 from dsmpepc_nlp.solve.cycle import Cycle
@@ -154,6 +155,25 @@ def test_sources_hash_follows_an_edit(tmp_path, monkeypatch):
     cycle = package / "solve" / "cycle.py"
     cycle.write_text(cycle.read_text() + "\n# an edit\n")
     assert cache.sources_hash("dsmpepc_nlp.solve._exact_kernel") != before
+
+
+def test_two_checkouts_sharing_a_cache_keep_their_own_hashes(tmp_path, monkeypatch):
+    """The memo of a closure's hash belongs to one package folder: a second checkout of other
+    code, with the same cache, must not read the first one's hash back (it once did: the
+    memo was named by the module alone, and the first checkout's files were still unchanged)."""
+    import shutil
+
+    monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path / "cache"))
+    hashes = {}
+    for name in ("a", "b"):
+        package = tmp_path / name / "dsmpepc_nlp"
+        shutil.copytree(cache._PACKAGE, package, ignore=shutil.ignore_patterns("__pycache__"))
+        if name == "b":
+            cycle = package / "solve" / "cycle.py"
+            cycle.write_text(cycle.read_text() + "\n# other code\n")
+        monkeypatch.setattr(cache, "_PACKAGE", package)
+        hashes[name] = cache.sources_hash("dsmpepc_nlp.solve._exact_kernel")
+    assert hashes["a"] != hashes["b"]
 
 
 def test_prune_bounds_the_cache_and_drops_other_versions(tmp_path, monkeypatch):

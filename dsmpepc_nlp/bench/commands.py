@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core import options
-from ..core.config import VARIANTS, SolverConfig
+from ..core.config import SOLVER_NAMES, VARIANTS, SolverConfig
 from ..core.errors import InputError
 from ..core.jsonio import json_clean
 from ..core.progress import EpisodeProgress, say
@@ -36,7 +36,6 @@ from .results import parse_indices
 from .summary import fmt, summarised
 from .timing import run_bench
 
-SOLVERS = ("nlp", "fast", "sampling")
 PLANNER_VARIANTS = tuple(VARIANTS)
 
 
@@ -140,7 +139,7 @@ def _table_options(parser, out_default: str, solver_default: str = "nlp",
                         help="continue the table in --out, skipping runs already done")
     parser.add_argument("--overwrite", action="store_true",
                         help="discard a table already in --out")
-    parser.add_argument("--solver", default=solver_default, choices=SOLVERS,
+    parser.add_argument("--solver", default=solver_default, choices=SOLVER_NAMES,
                         help=f"planner solver (default {solver_default})")
     parser.add_argument("--samples", type=options.positive, default=None,
                         help="samples per plan of the sampling solver, >= 1 "
@@ -297,7 +296,7 @@ def add_claims(p) -> None:
                         f"{', '.join(claims.families.FAMILIES)})")
     p.add_argument("--variants", nargs="+", default=list(claims.CLAIM_VARIANTS),
                    choices=PLANNER_VARIANTS)
-    p.add_argument("--solvers", nargs="+", default=list(claims.CLAIM_SOLVERS), choices=SOLVERS)
+    p.add_argument("--solvers", nargs="+", default=list(claims.CLAIM_SOLVERS), choices=SOLVER_NAMES)
     p.add_argument("--seeds", default="0-4", help="seeds: 0-4, 0,5,7 (default 0-4)")
     p.add_argument("--quick", action="store_true",
                    help="the small grid of each family (3 values of the first axis, one of the "

@@ -20,9 +20,8 @@ import time
 
 import numpy as np
 
-from ..core.config import PlannerConfig, RobotState, SolverConfig
+from ..core.config import TERM_NAMES, PlannerConfig, RobotState, SolverConfig
 from ..core.control_law import arc_step
-from ..core.costs import TERM_NAMES
 from ..core.geometry import footprint_points
 from .orca import GAIN_TURN, SLOW_RADIUS, OrcaPlan, _Costs, _Trajectory
 

@@ -26,9 +26,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.config import VARIANTS, PlannerConfig, RobotState, SolverConfig
+from ..core.config import TERM_NAMES, VARIANTS, PlannerConfig, RobotState, SolverConfig
 from ..core.control_law import arc_step
-from ..core.costs import TERM_NAMES
 from ..core.errors import InputError, MissingExtra
 from ..sim.simulate import simulate
 

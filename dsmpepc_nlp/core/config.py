@@ -533,6 +533,10 @@ class RobotState:
 SOLVER_METHODS = ("ipopt", "newton", "sampling")
 
 
+SOLVER_NAMES = ("nlp", "fast", "sampling")
+"""The solvers by name, as on the command line (:meth:`SolverConfig.named`): the one list."""
+
+
 @dataclass(frozen=True)
 class SolverConfig:
     """How a plan is searched for: the NLP plugin and its options, or the sampling planner.
@@ -687,8 +691,8 @@ class SolverConfig:
 
     @classmethod
     def named(cls, name: str) -> SolverConfig:
-        """``nlp`` (IPOPT), ``fast`` or ``sampling``, as on the command line."""
-        makers = {"nlp": cls, "fast": cls.fast, "sampling": cls.sampling}
+        """One of :data:`SOLVER_NAMES`: ``nlp`` (IPOPT), ``fast`` or ``sampling``."""
+        makers = dict(zip(SOLVER_NAMES, (cls, cls.fast, cls.sampling)))
         if name not in makers:
             raise InputError(f"solver = {name!r}: must be one of {', '.join(makers)}")
         return makers[name]()

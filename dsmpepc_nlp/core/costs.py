@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config import TERM_NAMES, PlannerConfig  # noqa: F401 (TERM_NAMES re-exported)
+from .config import PlannerConfig
 from .control_law import EXACT, Trajectory
 from .errors import InputError
 from .geometry import footprint_points

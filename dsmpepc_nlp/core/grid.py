@@ -23,7 +23,8 @@ from .errors import (
 from .mapfile import read_map, write_map
 
 FAR = 1e3
-"""Signed distance (m) reported everywhere on a grid without any occupied cell."""
+"""A distance where nothing is, m: the signed distance everywhere on a grid without any
+occupied cell, and the NLP's padding objects (``exp(-FAR^2/sigma^2)`` is exactly 0)."""
 
 
 # ---------------------------------------------------------------------------------------------

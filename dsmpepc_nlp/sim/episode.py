@@ -11,8 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.config import PlannerConfig, RobotState
-from ..core.costs import TERM_NAMES
+from ..core.config import TERM_NAMES, PlannerConfig, RobotState
 from ..core.errors import InputError
 from ..core.files import atomic_write_bytes
 from ..core.jsonio import json_clean

@@ -21,9 +21,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..core.config import PlannerConfig, RobotState, SolverConfig
+from ..core.config import TERM_NAMES, PlannerConfig, RobotState, SolverConfig
 from ..core.control_law import arc_step
-from ..core.costs import TERM_NAMES
 from ..core.errors import InputError
 from ..core.geometry import footprint_points
 from ..core.world import DynamicObstacle, World

@@ -123,7 +123,8 @@ def sources_hash(*modules: str) -> str:
     file sizes and modification times: while none of those files changes (a closure grows only
     through an edit of one of its files), a process reads the hash back in well under 1 ms.
     """
-    memo_path = cache_dir("sources") / (config_key(*modules) + ".json")
+    # One memo per package folder: two checkouts sharing a cache must not read each other's.
+    memo_path = cache_dir("sources") / (config_key(str(_PACKAGE), *modules) + ".json")
     try:
         memo = json.loads(memo_path.read_text())
         if all(Path(p).stat().st_size == size and Path(p).stat().st_mtime_ns == mtime

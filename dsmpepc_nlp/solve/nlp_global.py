@@ -37,10 +37,9 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from ..core.config import PlannerConfig
+from ..core.config import TERM_NAMES, PlannerConfig
 from ..core.control_law import clamp_measured, step, target_pose
 from ..core.costs import (
-    TERM_NAMES,
     assemble,
     collision_probability,
     disk_inverse_ttc,
@@ -49,13 +48,13 @@ from ..core.costs import (
 )
 from ..core.errors import InputError
 from ..core.geometry import body_to_world
+from ..core.grid import FAR
 from ..core.smooth import CASADI, is_exact, relu, sigmoid, smax, softmax_objects, softmin_objects
 from . import settings as settings_block
 from .cycle import CULL_SIGMAS
 
-FAR = 1.0e3
-"""Distance reported by padding objects and by a world without a map, m:
-exp(-FAR^2/sigma^2) is exactly 0."""
+# FAR (core.grid's): the distance reported by padding objects and by a world without a map,
+# m; exp(-FAR^2/sigma^2) is exactly 0.
 
 FRAME_COLUMNS = 5
 """A table's frame: origin (x, y) of its lower-left cell corner, resolution, and the number of
@@ -524,7 +523,7 @@ def build_cost_function(config: PlannerConfig, sizes: GraphSizes, smoothing=None
     :func:`parameter_shapes`, values from :func:`pack_parameters`; the configuration's numbers
     are the ``settings`` block, so one graph serves every configuration of the same
     :func:`.settings.structure`). Outputs: ``cost`` and each term of
-    :data:`~dsmpepc_nlp.core.costs.TERM_NAMES`. A ``smoothing`` other than the configuration's
+    :data:`~dsmpepc_nlp.core.config.TERM_NAMES`. A ``smoothing`` other than the configuration's
     is built in as constants.
 
     An MX graph of small SX functions (the rollout, one pose's geometry called N+1 times, the
@@ -761,6 +760,6 @@ def cost_function(config: PlannerConfig, sizes: GraphSizes | None = None,
     return build_cost_function(config, GraphSizes() if sizes is None else sizes, smoothing)
 
 
-__all__ = ["FAR", "GraphSizes", "PARAMETER_NAMES", "build_cost_function",
+__all__ = ["GraphSizes", "PARAMETER_NAMES", "build_cost_function",
            "cost_function", "flat_cost", "flatten_parameters", "pack_parameters", "pack_table",
            "parameter_shapes", "is_finite_parameters", "pose_mask", "ray_samples"]

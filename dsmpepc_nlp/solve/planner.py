@@ -11,9 +11,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.config import PlannerConfig, RobotState, SolverConfig
+from ..core.config import TERM_NAMES, PlannerConfig, RobotState, SolverConfig
 from ..core.control_law import Trajectory, rollout
-from ..core.costs import TERM_NAMES, CostBreakdown
+from ..core.costs import CostBreakdown
 from ..core.errors import InputError
 from . import docking, exact
 from .cycle import Cycle

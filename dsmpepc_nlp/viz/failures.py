@@ -18,7 +18,7 @@ from matplotlib.patches import Circle
 
 from ..core.files import atomic_savefig
 from ..sim.outcomes import OutcomeConfig
-from .plots import _footprint, _limits, draw_cost_panel, draw_map
+from .plots import _footprint, _limits, draw_cost_panel, draw_map, on_stage
 
 EVIDENCE_KEYS = ("collision_kind", "touched", "robot_speed", "approach_speed", "net_displacement",
                  "path_in_window", "reversals", "goal_distance", "person_gap", "person_speed",
@@ -47,12 +47,13 @@ def draw_scene(ax, episode, failure: dict, label: str, evidence: bool = True) ->
     ax.plot(path[-window:, 0], path[-window:, 1], color="darkorange", lw=3, zorder=3)
     ax.plot(*path[0], marker="o", color="tab:blue", ms=6, zorder=5)
     for j, radius in enumerate(episode.ped_radii):
-        trace = episode.ped_positions[:end + 1, j]
+        trace = on_stage(episode, episode.ped_positions[:end + 1, j])
         person = failure["evidence"].get("person", failure["evidence"].get("pedestrian"))
         colour = "darkred" if j == person else "tab:red"
         ax.plot(trace[:, 0], trace[:, 1], color=colour, lw=0.8, alpha=0.5, zorder=2)
-        ax.add_patch(Circle(episode.ped_positions[k, j], radius, color=colour, alpha=0.8,
-                            zorder=3))
+        if np.all(np.isfinite(trace[min(k, len(trace) - 1)])):
+            ax.add_patch(Circle(episode.ped_positions[k, j], radius, color=colour, alpha=0.8,
+                                zorder=3))
     _footprint(ax, episode.states[robot, k, :3], episode.footprint(robot), "tab:blue", 0.6)
     goal = episode.goals[robot, k]
     ax.plot(goal[0], goal[1], marker="x", color="tab:green", ms=9, mew=2, zorder=5)

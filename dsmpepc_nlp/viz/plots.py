@@ -43,6 +43,21 @@ def draw_map(ax, grid) -> None:
               vmin=0, vmax=1, interpolation="nearest", zorder=0)
 
 
+STAGE_MARGIN = 10.0
+"""People farther than this from every robot state and goal are off the stage, m: a replayed
+recording parks pedestrians far away before and after their tracks (bench.crowds.OFFSTAGE)."""
+
+
+def on_stage(episode, points) -> np.ndarray:
+    """``points`` (..., 2) with those off the stage (:data:`STAGE_MARGIN`) set to NaN, so
+    that a line through them breaks and no limit reaches for them."""
+    robots = np.concatenate([episode.states[..., :2].reshape(-1, 2), episode.goals.reshape(-1, 2)])
+    low, high = robots.min(0) - STAGE_MARGIN, robots.max(0) + STAGE_MARGIN
+    points = np.array(points, dtype=float)
+    points[~np.all((points >= low) & (points <= high), axis=-1)] = np.nan
+    return points
+
+
 def _limits(episode, ax):
     grid = episode.grid
     if grid is not None:
@@ -50,7 +65,8 @@ def _limits(episode, ax):
     else:
         pts = [episode.states[..., :2].reshape(-1, 2), episode.goals.reshape(-1, 2)]
         if episode.ped_positions.size:
-            pts.append(episode.ped_positions.reshape(-1, 2))
+            people = on_stage(episode, episode.ped_positions.reshape(-1, 2))
+            pts.append(people[np.all(np.isfinite(people), axis=1)])
         pts = np.concatenate(pts)
         (x0, y0), (x1, y1) = pts.min(0) - 1.0, pts.max(0) + 1.0
     ax.set_xlim(x0, x1)
@@ -116,11 +132,12 @@ def draw_cycle(ax, episode, cycle: int, *, samples: bool = True, title: bool = T
     for j, radius in enumerate(episode.ped_radii):
         colour = "tab:green" if j in followed else "tab:red"
         kind = "followed pedestrian" if j in followed else "pedestrian"
-        trace = episode.ped_positions[first:k + 1, j]
+        trace = on_stage(episode, episode.ped_positions[first:k + 1, j])
         ax.plot(trace[:, 0], trace[:, 1], color=colour, lw=1, alpha=0.6, zorder=2,
                 label=_once(seen, f"{kind} ({trace_words})"))
-        ax.add_patch(Circle(trace[-1], radius, color=colour, alpha=0.8, zorder=3,
-                            label=_once(seen, kind)))
+        if np.all(np.isfinite(trace[-1])):
+            ax.add_patch(Circle(trace[-1], radius, color=colour, alpha=0.8, zorder=3,
+                                label=_once(seen, kind)))
     for parked in episode.meta["parked"]:
         _footprint(ax, parked["pose"], np.asarray(parked["footprint"]), "dimgray",
                    label=_once(seen, "parked robot"))
