@@ -11,6 +11,7 @@ from dsmpepc_nlp.bench import cv
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, World
 from dsmpepc_nlp.sim.metrics import min_dynamic_clearance
+from dsmpepc_nlp.sim.outcomes import OutcomeConfig
 from dsmpepc_nlp.sim.simulate import simulate
 from dsmpepc_nlp.sim.types import Agent, FixedGoal, Pedestrian, Scenario
 
@@ -58,7 +59,8 @@ def test_never_drives_into_a_person_standing_in_its_way():
                         pedestrians=(Pedestrian.constant((3.0, 0.0), (0.0, 0.0)),),
                         duration=12.0)
     log = simulate(scenario, CONFIG, SolverConfig.sampling(n_samples=1),
-                   planner_factory=cv.ConstantVelocityPlanner, deadlock=False)
+                   planner_factory=cv.ConstantVelocityPlanner,
+                   outcomes=OutcomeConfig(deadlock=False))
     assert log.outcomes == ["timeout"]
     assert cv.MARGIN / 2 < min_dynamic_clearance(log, 0) < 1.0  # stopped short, close
 
