@@ -1,0 +1,41 @@
+"""Hashes of the plans of the crowded demo scene, to compare two checkouts bit for bit.
+
+For both presets, both variants and the three solvers, a planner plans the first ``--cycles``
+cycles of ``dsmpepc bench``'s demo scene (docking off); every plan's ``x`` and ``fun`` go into
+one hash per configuration. Run it from each checkout and diff the output::
+
+    python tools/plan_hashes.py > new.txt
+    PYTHONPATH=/path/to/other/checkout python tools/plan_hashes.py > old.txt
+    diff old.txt new.txt
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+
+from dsmpepc_nlp import Planner, PlannerConfig, SolverConfig
+from dsmpepc_nlp.bench.scenes import demo_cycles
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cycles", type=int, default=12)
+    args = parser.parse_args()
+    cycles = demo_cycles(PlannerConfig.paper(), args.cycles)
+    for preset in ("product", "paper"):
+        for variant in ("mpepc", "ds-mpepc"):
+            config = (PlannerConfig.variant(variant) if preset == "product"
+                      else PlannerConfig.paper(variant))
+            for solver in ("nlp", "fast", "sampling"):
+                planner = Planner(config, SolverConfig.named(solver), compile="wait")
+                digest = hashlib.sha1()
+                for state, world, goal in cycles:
+                    plan = planner.plan(state, world, goal, dock=False)
+                    digest.update(plan.x.tobytes())
+                    digest.update(repr(float(plan.fun)).encode())
+                print(f"{preset} {variant} {solver} {digest.hexdigest()[:16]}")
+
+
+if __name__ == "__main__":
+    main()
