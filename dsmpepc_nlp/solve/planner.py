@@ -15,6 +15,7 @@ from ..core.config import TERM_NAMES, PlannerConfig, RobotState, SolverConfig
 from ..core.control_law import Trajectory, rollout
 from ..core.costs import CostBreakdown
 from ..core.errors import InputError
+from ..core.world import World
 from . import docking, exact
 from .cycle import Cycle
 from .nlp import NlpSolver
@@ -187,7 +188,7 @@ class Planner:
         self._fallbacks, self._warned = 0, False
         self.stall.reset()
 
-    def plan(self, state: RobotState, world, goal, *, dock: bool = True,
+    def plan(self, state: RobotState, world: World, goal, *, dock: bool = True,
              sample: bool = False) -> Plan:
         """Plan from ``state`` toward ``goal`` in ``world``.
 
