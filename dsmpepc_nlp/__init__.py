@@ -1,5 +1,6 @@
 """DS-MPEPC local navigation as a CasADi nonlinear program, with an exact sampling verifier."""
 
+from ._version import __version__
 from .core.config import (
     BoundsConfig,
     ControlLawConfig,
@@ -25,5 +26,6 @@ __all__ = [
     "DynamicObstacle", "HorizonConfig", "InputError", "NavigationFunction", "OccupancyGrid",
     "Plan", "Planner",
     "PlannerConfig", "RobotConfig", "RobotState", "SmoothingConfig", "SolverConfig",
-    "StallConfig", "StartRecord", "Trajectory", "World", "evaluate", "rollout", "rollout_function",
+    "StallConfig", "StartRecord", "Trajectory", "World", "__version__", "evaluate", "rollout",
+    "rollout_function",
 ]

@@ -3,13 +3,12 @@ reader of scenario and map files."""
 
 from __future__ import annotations
 
+import functools
 import io
 import os
 import re
 import tempfile
 from pathlib import Path
-
-import yaml
 
 
 def atomic_write_bytes(path, payload: bytes) -> Path:
@@ -55,18 +54,34 @@ def atomic_savefig(fig, path, **kwargs) -> Path:
     return atomic_write_bytes(path, buffer.getvalue())
 
 
-class _NumberLoader(yaml.SafeLoader):
+@functools.cache
+def _number_loader():
     """PyYAML's safe loader (YAML 1.1) that also reads ``1e9``, ``2E-3`` and ``.5e1`` as
     numbers, as YAML 1.2 does: YAML 1.1 wants a dot and a signed exponent (``1.0e+9``), and
-    reads ``1e9`` as the string "1e9"."""
+    reads ``1e9`` as the string "1e9". Made on first use: PyYAML's import (~20 ms) is not
+    paid by a process that plans without reading a file."""
+    import yaml
 
+    class NumberLoader(yaml.SafeLoader):
+        pass
 
-_NumberLoader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
-    list("-+0123456789."))
+    NumberLoader.add_implicit_resolver(
+        "tag:yaml.org,2002:float",
+        re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
+        list("-+0123456789."))
+    return NumberLoader
 
 
 def load_yaml(text: str):
-    """YAML text as Python objects: :func:`yaml.safe_load`, with ``1e9`` read as a number."""
-    return yaml.load(text, Loader=_NumberLoader)  # noqa: S506 - a SafeLoader subclass
+    """YAML text as Python objects: :func:`yaml.safe_load`, with ``1e9`` read as a number.
+    Invalid YAML raises :class:`YamlError`."""
+    import yaml
+
+    try:
+        return yaml.load(text, Loader=_number_loader())  # noqa: S506 - a SafeLoader subclass
+    except yaml.YAMLError as exc:
+        raise YamlError(str(exc)) from exc
+
+
+class YamlError(ValueError):
+    """Text that is not valid YAML (PyYAML's ``YAMLError``, without importing PyYAML)."""

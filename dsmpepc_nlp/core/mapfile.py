@@ -8,10 +8,9 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from .errors import MAX_COORDINATE, RESOLUTION_RANGE, InputError, finite_vector, number_in
-from .files import atomic_write_bytes, load_yaml
+from .files import YamlError, atomic_write_bytes, load_yaml
 
 
 def _read_pgm(path):
@@ -143,7 +142,7 @@ def read_map(path):
         meta = load_yaml(path.read_text())
     except OSError as exc:
         raise InputError(f"{where}: cannot read ({exc.strerror})") from None
-    except yaml.YAMLError as exc:
+    except YamlError as exc:
         raise InputError(f"{where}: invalid YAML ({exc})") from None
     if not isinstance(meta, dict):
         raise InputError(  # noqa: TRY004 - bad file content, not a bad argument
@@ -235,4 +234,6 @@ def write_map(path, occupied, resolution, origin, image_name=None) -> None:
         "free_thresh": 0.196,
         "mode": "trinary",
     }
+    import yaml
+
     atomic_write_bytes(path, yaml.safe_dump(meta, sort_keys=False).encode())

@@ -46,11 +46,10 @@ import math
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from ..core.config import RobotConfig, RobotState
 from ..core.errors import MAX_COORDINATE, MAX_DURATION, MAX_SIZE, MAX_SPEED, InputError, shown
-from ..core.files import load_yaml
+from ..core.files import YamlError, load_yaml
 from ..core.world import OccupancyGrid
 from .checks import check_against_map, start_conflict
 from .types import Agent, FixedGoal, FollowGoal, ParkedRobot, Pedestrian, Scenario
@@ -210,7 +209,7 @@ def load_scenario(name_or_path) -> Scenario:
         data = load_yaml(path.read_text())
     except OSError as exc:
         raise ScenarioError(f"scenario {str(path)!r}: cannot read ({exc.strerror})") from None
-    except yaml.YAMLError as exc:
+    except YamlError as exc:
         problem = str(exc).replace("\n", " ")
         raise ScenarioError(f"scenario {str(path)!r}: invalid YAML ({problem})") from None
     return parse_scenario(data, source=str(path), folder=path.parent)

@@ -11,27 +11,23 @@ from __future__ import annotations
 
 import ast
 import contextlib
-import functools
 import hashlib
 import json
 import os
 import shutil
 import time
 import warnings
-from importlib import metadata
 from pathlib import Path
+
+from .._version import __version__
 
 _WARNED: set = set()
 
 
-@functools.cache
 def package_version() -> str:
-    """The installed version of dsmpepc_nlp ("0+unknown" when running from a bare checkout);
-    looked up once a process (a look-up reads the package's metadata: ~5 ms)."""
-    try:
-        return metadata.version("dsmpepc_nlp")
-    except metadata.PackageNotFoundError:
-        return "0+unknown"
+    """The version of dsmpepc_nlp (``dsmpepc_nlp._version``; read without importing
+    ``importlib.metadata``, which a fresh process's first plan would pay ~10 ms for)."""
+    return __version__
 
 
 def compile_enabled() -> bool:
@@ -277,6 +273,8 @@ def numba_folder(module: str) -> Path:
     :func:`source_closure` (numba freezes imported constants, e.g. the parameter layout of
     ``cycle.PARAMETERS``, into the compiled code) and numba's version; created and marked
     used."""
+    from importlib import metadata
+
     try:
         numba_version = metadata.version("numba")
     except metadata.PackageNotFoundError:
