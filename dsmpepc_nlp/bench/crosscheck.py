@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -73,10 +74,13 @@ def crosscheck(cycles, config: PlannerConfig, solver_config: SolverConfig | None
 
     Notes
     -----
-    Docking is off for both planners: near the goal it would bypass both solvers.
+    Docking is off for both planners: near the goal it would bypass both solvers. So is the
+    stall monitor: its ladder changes the cost from one cycle to the next (the progress weight
+    up to x8, and the gaps in cost units with it), and the two solvers are compared on one cost.
     """
     from ..solve.planner import Planner
 
+    config = dataclasses.replace(config, stall=dataclasses.replace(config.stall, levels=0))
     solver_config = SolverConfig() if solver_config is None else solver_config
     nlp = Planner(config, solver_config)
     nlp.prepare()
