@@ -424,8 +424,7 @@ class PlannerConfig:
         cost = self.cost
         if not cost.sigma_static_from_map or resolution is None:
             return self
-        # Kept per instance and resolution: a planner asks every cycle for the same map, and
-        # rebuilding (and validating) the configuration took ~35 us a call.
+        # Kept per instance and resolution: a planner asks every cycle for the same map.
         made = self.__dict__.setdefault("_for_map", {})
         if resolution not in made:
             sigma = math.sqrt(resolution * resolution / 12.0 + cost.localisation_std ** 2)
@@ -570,10 +569,8 @@ class SolverConfig:
     """Low-discrepancy z costed exactly with the named starts before any solve (the landscape
     is multimodal: the NLP only runs from the best of them)."""
     n_solved: int = 3
-    """Starts the NLP runs from (the warm start, then the best distinct others). Two (with 7
-    polished seeds) would save ~7 ms a default plan, with the built-in scenarios' outcomes
-    and the cross-check targets kept, but BARN's 300 worlds went 200 -> 197 and 202 -> 199
-    with two screening seeds (docs/nlp.md, "Pass 8"): three."""
+    """Starts the NLP runs from (the warm start, then the best distinct others); fewer lost
+    BARN worlds (docs/nlp.md, "Pass 8")."""
     solve_threads: int = 2
     """Threads the solves of one plan run on at once (IPOPT: each with its own ``nlpsol``,
     which releases Python's lock while it runs; ``newton``: its compiled loop, which does too);
@@ -596,19 +593,16 @@ class SolverConfig:
     polish_rounds: int = 8
     """Rounds of the exact-cost polish after the solves: the best candidate's 24 neighbours
     (a step of ``polish_step`` along one variable, or along all four at once; share of each
-    range) are costed exactly and the best kept, then the step halves; 0 turns it off. (Until
-    Pass 6: 5 rounds of all 80 grid neighbours, 2.1 times the trajectories for a cross-check
-    no better; docs/nlp.md.)"""
+    range) are costed exactly and the best kept, then the step halves; 0 turns it off
+    (docs/nlp.md, "Pass 6")."""
     polish_step: float = 0.04
     """First step of the polish, as a share of each variable's range."""
     polish_starts: int = 5
     """Best distinct candidates (solved or screened, by exact cost) the polish starts from."""
     polish_margin: float = 1.0
     """Candidates whose exact cost trails the best one's by more than this are not polished
-    (``inf``: every one of the ``polish_starts``). The largest gain a polish ever made was
-    0.48 (289 plans of hall, t-corridor and the demo scene); at 1.0 every plan of the
-    cross-check's cycles and of the demo is the same as with ``inf``, and the demo's plans
-    cost 41 % fewer exact trajectories (docs/nlp.md, "Pass 6")."""
+    (``inf``: every one of the ``polish_starts``): no polish gain measured ever came near it
+    (docs/nlp.md, "Pass 6")."""
     polish_ahead: bool = True
     """Polish on the thread the solves leave idle: three solves on two threads end with one
     thread waiting for the last solve, and there it walks from the seeds known so far (the
@@ -677,8 +671,7 @@ class SolverConfig:
         On 4 variables it needs no barrier and no per-call ``nlpsol`` overhead; ``tol`` is the
         predicted decrease counted as converged (1e-3, against the 0.01 cost tolerance). The
         exact polish starts from the 3 best candidates instead of 5: two fifths of the polish
-        saved for one hall cycle in 150 (the cross-check's cycles, script: hall 94.7 -> 94.0 %,
-        t-corridor 97.5 % both, the demo plans' exact costs unchanged; docs/nlp.md, "Pass 6").
+        saved for about the same plans (docs/nlp.md, "Pass 6").
         """
         changes.setdefault("tol", 1e-3)
         changes.setdefault("polish_starts", 3)

@@ -81,16 +81,12 @@ def problem_functions(cost: ca.Function, fd_step=None, hessian="differences") ->
 
 
 COMPILE_FLAGS = ("-O2", "-fno-semantic-interposition", "-fno-math-errno")
-"""How the generated C is compiled (docs/nlp.md, "Pass 9"; callgrind and timings on the
-12-object graph of a demo cycle):
+"""How the generated C is compiled (the measurements: docs/nlp.md, "Pass 9"):
 
-- ``-O2``: a cost call ~25 % and a gradient call ~15 % shorter than at ``-O1``, for ~50 % more
-  compile time (~30 s a configuration on an idle core);
+- ``-O2``: shorter calls than ``-O1`` for a longer compile;
 - ``-fno-semantic-interposition``: the file's own small helpers (``casadi_sq``,
-  ``casadi_fmax``, ``casadi_copy``, ...) may be inlined, which ``-fPIC`` otherwise forbids
-  (they could be replaced at load time): 10-13 % fewer instructions a call;
-- ``-fno-math-errno``: ``sqrt`` as one instruction, without the call that would set ``errno``
-  for a negative argument (nothing reads ``errno``): ~2 % fewer.
+  ``casadi_fmax``, ``casadi_copy``, ...) may be inlined, which ``-fPIC`` otherwise forbids;
+- ``-fno-math-errno``: ``sqrt`` as one instruction (nothing reads ``errno``).
 
 No ``-ffast-math`` and no ``-march``: without reassociation or fused multiply-adds every
 operation rounds as written, and the outputs are ``-O1``'s to the bit."""

@@ -129,10 +129,8 @@ def ray_samples(config: PlannerConfig, sizes: GraphSizes) -> int:
     A ray that crosses a wall spends at least a footprint diameter within a radius of it
     (gap <= 0), so samples a radius apart put at least two in contact: no wall is skipped,
     and the first crossing is interpolated between samples a radius apart. (A ray that only
-    grazes a wall's inflated edge is missed at any finite count.) 64 fixed samples before:
-    the cost's error against the exact one was the same at 16, 32 and 64 (docs/nlp.md) and
-    the gradient 18 % dearer at 64 than at 16 (the crowded demo scene; on maps without
-    people the ray is a larger share).
+    grazes a wall's inflated edge is missed at any finite count.) More samples buy no accuracy
+    and cost gradient time (docs/nlp.md).
     """
     if sizes.ray_samples is not None:
         return sizes.ray_samples
@@ -372,8 +370,7 @@ def _symbolic(config, smoothing):
 def _piece(name, inputs, outputs, fixed, positions):
     """A SX piece of the graph; with ``fixed``, its inputs at ``positions`` (parameters: they
     never depend on z) are marked not differentiable, so that a gradient in z does not carry
-    their adjoints through every call (the settings block alone made the gradient ~17 %
-    dearer; docs/nlp.md, "Pass 12")."""
+    their adjoints through every call (docs/nlp.md, "Pass 12")."""
     if not fixed:
         return ca.Function(name, inputs, outputs)
     flags = [i not in positions for i in range(len(inputs))]
@@ -422,7 +419,7 @@ def _object_function(config, sizes, smoothing, fixed=False):
     near = _piece("dsmpepc_object_kept", inputs, [kept], fixed, (2, 3, 4, 5))
     # Exactly 1 with a zero derivative, written so that it reads every input: its adjoint is
     # then dense like the computation's, and the conditional's reverse mode writes it without
-    # projecting a structurally zero one (that projection was ~8 % of a gradient, callgrind).
+    # projecting a structurally zero one, a measurable share of a gradient (docs/nlp.md).
     far = _piece("dsmpepc_object_far", inputs,
                  [ca.fmax(1.0, -ca.fabs(ca.sum1(ca.vertcat(*(ca.vec(x) for x in inputs)))))],
                  fixed, (2, 3, 4, 5))
@@ -611,7 +608,7 @@ def pack_obstacles(cycle, sizes: GraphSizes, k_max: int | None = None,
     chosen = candidates[count[candidates] > 0][:k_max]
     # Each object's circles nearest first (ties by index: a stable sort by owner, then gap),
     # the first c_obj of each chosen object; padding circles repeat the nearest one (the min
-    # over circles is unchanged). Vectorised: a loop over objects took ~0.3 ms a plan.
+    # over circles is unchanged). Vectorised: a loop over objects was slower.
     order = np.lexsort((gap, owner))
     first = np.searchsorted(owner[order], chosen)
     column = np.arange(c_obj)
