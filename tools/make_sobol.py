@@ -19,4 +19,6 @@ if __name__ == "__main__":
                      for seed in SEEDS])
     path = Path(__file__).resolve().parent.parent / "dsmpepc_nlp" / "solve" / "sobol4.npy"
     np.save(path, data)
-    print(f"{path}: {data.shape}")
+    import scipy
+
+    print(f"{path}: {data.shape}; set sampling.SHIPPED_SOBOL_SCIPY = {scipy.__version__!r}")
