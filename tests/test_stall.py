@@ -45,6 +45,17 @@ def test_docking_reads_the_survivability_at_arrival_not_at_the_horizons_end():
     assert f"until arrival (step {step})" in message
 
 
+def test_the_product_docks_from_the_horizons_reach_and_the_paper_from_2_m():
+    product = PlannerConfig()
+    assert docking.docking_radius(product) == product.reach == 5.0
+    assert docking.docking_radius(PlannerConfig.paper()) == 2.0
+    # A robot 4 m from its goal, the way clear: the product docks, the paper preset plans.
+    state, goal = RobotState(0.0, 0.0, 0.0), (4.0, 0.0)
+    assert docking.dock(Cycle.prepare(state, World(), goal, product), product) is not None
+    paper = PlannerConfig.paper()
+    assert docking.dock(Cycle.prepare(state, World(), goal, paper), paper) is None
+
+
 def test_the_paper_preset_keeps_the_horizons_end_and_no_ladder():
     paper = PlannerConfig.paper()
     assert paper.docking.arrival_radius == 0.0 and paper.stall.levels == 0

@@ -21,13 +21,14 @@ rules used. The rules, in the order they are tried (the first that holds names t
 ``stalled-near-goal-person``, ``stalled-beside-person``
     Stuck and standing, with a pedestrian standing (mean speed below :data:`STANDING_SPEED`
     over the last :data:`STANDING_WINDOW`) within :data:`PERSON_GAP` of the footprint; near the
-    goal (within the run's docking radius) or not.
+    goal (within the run's ``docking.radius``, IROS 2012's 2 m, not the horizon's reach the
+    product docks from) or not.
 ``stalled-in-gap``
     Stuck and standing where the map is narrow: the narrowest chord through the robot's
     centre, or through a point up to :data:`GAP_LOOKAHEAD` ahead along the navigation
     function, is shorter than the robot's width plus ``2 *`` :data:`GAP_MARGIN`.
 ``stalled-near-goal``, ``stalled-open``
-    Stuck and standing, with neither cause: within the docking radius of the goal or not.
+    Stuck and standing, with neither cause: within ``docking.radius`` of the goal or not.
 
 Every threshold below is a named constant with the reason for its value.
 """

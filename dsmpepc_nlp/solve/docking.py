@@ -37,11 +37,10 @@ def dock(cycle: Cycle, config: PlannerConfig) -> tuple | None:
 
 def docking_radius(config: PlannerConfig) -> float:
     """The distance to a fixed goal within which the planner docks, m: ``docking.radius``, or
-    the horizon's reach when larger and ``docking.radius_from_reach`` is on."""
-    docking, horizon = config.docking, config.horizon
-    if not docking.radius_from_reach:
-        return docking.radius
-    return max(docking.radius, config.robot.v_limit * horizon.n_steps * horizon.dt)
+    the horizon's reach (:attr:`PlannerConfig.reach`) when larger and
+    ``docking.radius_from_reach`` is on."""
+    docking = config.docking
+    return max(docking.radius, config.reach) if docking.radius_from_reach else docking.radius
 
 
 def arrival_survival(evaluated: Evaluation, goal, radius: float) -> tuple:
