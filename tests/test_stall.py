@@ -123,3 +123,18 @@ def test_the_command_line_sets_the_ladder_and_the_paper_preset():
     assert configure({}, "ds-mpepc", "paper") == PlannerConfig.paper("ds-mpepc")
     with pytest.raises(InputError, match="whole number"):
         configure({"stall.levels": 1.5}, "ds-mpepc")
+
+
+def test_every_benchmark_table_runs_and_records_its_preset_and_overrides():
+    from dsmpepc_nlp.bench import crowdnav, crowds
+    from dsmpepc_nlp.bench.params import planner_config
+
+    for settings in (crowdnav.CrowdNavSettings(preset="paper"),
+                     crowds.CrowdSettings(data=".", scene="eth", preset="paper",
+                                          overrides=(("stall.levels", 2.0),))):
+        meta = settings.meta()
+        assert meta["preset"] == "paper"
+        config = planner_config(settings, "mpepc")
+        assert config.docking == PlannerConfig.paper("mpepc").docking
+        assert config.stall.levels == (2 if settings.overrides else 0)
+    assert "preset" not in crowdnav.CrowdNavSettings().meta()      # older tables still match

@@ -63,7 +63,7 @@ from ..solve.planner import Planner
 from .crowds import measured_row, run_variants
 from .cv import CROWD_BASELINES, ConstantVelocityPlanner
 from .orca import OrcaPlanner, check_variants, require_pyrvo
-from .params import config_meta, configure
+from .params import config_meta, planner_config
 from .results import ResultTable
 
 SCENES = ("circle", "square")
@@ -338,7 +338,7 @@ def simulate_episode(settings: CrowdNavSettings, variant: str, episode: int, see
         config, make = PlannerConfig(), BASELINES[variant]
         solver = SolverConfig.sampling(n_samples=1)
     else:
-        config, make = configure(dict(settings.overrides), variant, settings.preset), Planner
+        config, make = planner_config(settings, variant), Planner
         solver = SolverConfig.named(settings.solver)
         if settings.n_samples:
             solver = dataclasses.replace(solver, n_samples=settings.n_samples)

@@ -36,7 +36,7 @@ from ..sim.simulate import simulate
 from ..sim.types import Agent, FixedGoal, Pedestrian, Scenario
 from .cv import CROWD_BASELINES, ConstantVelocityPlanner
 from .orca import check_variants, simulate_orca
-from .params import config_meta, configure
+from .params import config_meta, planner_config
 from .results import ResultTable, keep_failure
 from .runner import mean, outcome_rates, plan_time_summary, run_all
 
@@ -293,8 +293,7 @@ def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int,
         solver = SolverConfig.named(settings.solver)
         if settings.n_samples:
             solver = replace(solver, n_samples=settings.n_samples)
-        return simulate(scenario, configure(dict(settings.overrides), variant, settings.preset),
-                        solver, rng,
+        return simulate(scenario, planner_config(settings, variant), solver, rng,
                         record_trajectories=False)
 
     return measured_row(row, run, lambda episode: {"contact_age": contact_age(episode)},

@@ -107,6 +107,12 @@ def configure(params: dict, variant: str, preset: str = "product") -> PlannerCon
     return dataclasses.replace(config, **parts)
 
 
+def planner_config(settings, variant: str) -> PlannerConfig:
+    """The configuration a benchmark's ``settings`` (with ``preset`` and ``overrides``, the
+    ``--preset`` and ``--set`` of its command) give ``variant``: the one door of every table."""
+    return configure(dict(settings.overrides), variant, settings.preset)
+
+
 def parse_ipopt_options(specs) -> tuple:
     """``("ipopt.KEY", value)`` pairs from ``KEY=VALUE`` strings (numbers parsed), each
     checked by building a one-variable IPOPT problem with it."""
