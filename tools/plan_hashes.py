@@ -29,11 +29,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cycles", type=int, default=12)
     args = parser.parse_args()
-    cycles = demo_cycles(PlannerConfig.paper(), args.cycles)
+    # Checkouts older than the presets had the paper's values as their defaults.
+    paper = getattr(PlannerConfig, "paper", PlannerConfig.variant)
+    cycles = demo_cycles(paper("ds-mpepc"), args.cycles)
     for preset in ("product", "paper"):
         for variant in ("mpepc", "ds-mpepc"):
             config = (PlannerConfig.variant(variant) if preset == "product"
-                      else PlannerConfig.paper(variant))
+                      else paper(variant))
             for solver in ("nlp", "fast", "sampling"):
                 planner = Planner(config, SolverConfig.named(solver), compile="wait")
                 digest = hashlib.sha1()
