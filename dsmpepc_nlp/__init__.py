@@ -4,19 +4,18 @@ from ._version import __version__
 from .core.config import (
     BoundsConfig,
     ControlLawConfig,
-    CostConfig,
     DockingConfig,
     HorizonConfig,
     PlannerConfig,
     RobotConfig,
     RobotState,
-    SmoothingConfig,
-    SolverConfig,
     StallConfig,
 )
 from .core.control_law import Trajectory, rollout, rollout_function
+from .core.cost_config import CostConfig, SmoothingConfig
 from .core.costs import CostBreakdown, evaluate
 from .core.errors import InputError
+from .core.solver_config import SolverConfig
 from .core.world import DynamicObstacle, NavigationFunction, OccupancyGrid, World
 from .solve.planner import Plan, Planner
 from .solve.records import StartRecord

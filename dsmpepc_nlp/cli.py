@@ -24,10 +24,11 @@ import numpy as np
 from .bench import commands, failure_report
 from .bench.params import PRESETS, preset_config
 from .core import options
-from .core.config import SOLVER_NAMES, VARIANTS
+from .core.config import VARIANTS
 from .core.errors import InputError
 from .core.jsonio import json_clean
 from .core.progress import EpisodeProgress
+from .core.solver_config import SOLVER_NAMES
 from .sim.metrics import episode_metrics
 from .sim.panels import cost_panels
 from .sim.scenario import builtin_names, load_scenario

@@ -1,6 +1,6 @@
 """What a CasADi user needs to put the DS-MPEPC cost into their own problem, in one place.
 
-Re-exported from :mod:`dsmpepc_nlp.solve.nlp_global` and :mod:`dsmpepc_nlp.solve.cycle`;
+Re-exported from :mod:`dsmpepc_nlp.solve.graph` and :mod:`dsmpepc_nlp.solve.cycle`;
 ``examples/embed_in_opti.py`` is a complete example (its own world, ``casadi.Opti``, an extra
 constraint, the exact cost at the solution).
 
@@ -24,9 +24,9 @@ The parameter blocks, in the order of :data:`PARAMETER_NAMES`, shaped by
 
 from __future__ import annotations
 
+from .core.grid import FAR
 from .solve.cycle import Cycle
-from .solve.nlp_global import (
-    FAR,
+from .solve.graph import (
     FRAME_COLUMNS,
     PARAMETER_NAMES,
     GraphSizes,

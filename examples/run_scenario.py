@@ -12,7 +12,8 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 
-from dsmpepc_nlp.core.config import PlannerConfig, SolverConfig
+from dsmpepc_nlp.core.config import PlannerConfig
+from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.sim.metrics import episode_metrics
 from dsmpepc_nlp.sim.panels import cost_panels
 from dsmpepc_nlp.sim.scenario import load_scenario

@@ -12,7 +12,8 @@ import os
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.core.config import PlannerConfig, SolverConfig
+from dsmpepc_nlp.core.config import PlannerConfig
+from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.sim import families
 from dsmpepc_nlp.sim.scenario import load_scenario
 from dsmpepc_nlp.sim.simulate import simulate

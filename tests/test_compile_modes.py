@@ -7,17 +7,12 @@ import time
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.core.config import (
-    CostConfig,
-    PlannerConfig,
-    RobotConfig,
-    RobotState,
-    SmoothingConfig,
-)
+from dsmpepc_nlp.core.config import PlannerConfig, RobotConfig, RobotState
+from dsmpepc_nlp.core.cost_config import CostConfig, SmoothingConfig
 from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.world import OccupancyGrid, World
 from dsmpepc_nlp.solve import background, compiled, settings
-from dsmpepc_nlp.solve import nlp_global as g
+from dsmpepc_nlp.solve import graph as g
 from dsmpepc_nlp.solve.cycle import Cycle
 from dsmpepc_nlp.solve.planner import Planner
 
@@ -63,7 +58,7 @@ def test_a_failed_background_compile_is_retried_then_left_to_the_planner(tmp_pat
     """A child that failed is started again (not ready meanwhile); after MAX_TRIES failures
     the library is ready to be built by the planner itself, with one warning; one child runs
     at a time."""
-    from dsmpepc_nlp.core.config import SolverConfig
+    from dsmpepc_nlp.core.solver_config import SolverConfig
     from dsmpepc_nlp.solve import problem
 
     monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))           # nothing is cached

@@ -8,14 +8,13 @@ import pytest
 from dsmpepc_nlp.core.config import (
     BoundsConfig,
     ControlLawConfig,
-    CostConfig,
     HorizonConfig,
     PlannerConfig,
     RobotConfig,
     RobotState,
-    SmoothingConfig,
-    SolverConfig,
 )
+from dsmpepc_nlp.core.cost_config import CostConfig, SmoothingConfig
+from dsmpepc_nlp.core.solver_config import SolverConfig
 
 
 def test_defaults_are_the_methods():

@@ -9,8 +9,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from dsmpepc_nlp.core.config import PlannerConfig, RobotConfig, RobotState, SmoothingConfig
+from dsmpepc_nlp.core.config import PlannerConfig, RobotConfig, RobotState
 from dsmpepc_nlp.core.control_law import rollout, rollout_function, target_pose, z_from_target
+from dsmpepc_nlp.core.cost_config import SmoothingConfig
 
 CFG = PlannerConfig()
 NO_RATE_LIMITS = dataclasses.replace(

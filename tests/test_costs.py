@@ -7,14 +7,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from dsmpepc_nlp.core.config import (
-    TERM_NAMES,
-    PlannerConfig,
-    RobotState,
-    SmoothingConfig,
-    SolverConfig,
-)
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.control_law import rollout
+from dsmpepc_nlp.core.cost_config import TERM_NAMES, SmoothingConfig
 from dsmpepc_nlp.core.costs import (
     assemble,
     collision_probability,
@@ -22,6 +17,7 @@ from dsmpepc_nlp.core.costs import (
     evaluate,
     inverse_ttg,
 )
+from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 from dsmpepc_nlp.solve.planner import Planner
 

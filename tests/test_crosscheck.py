@@ -6,7 +6,8 @@ import pytest
 
 from dsmpepc_nlp.bench.crosscheck import CrosscheckResult, crosscheck
 from dsmpepc_nlp.bench.scenes import demo_cycles
-from dsmpepc_nlp.core.config import PlannerConfig, SolverConfig
+from dsmpepc_nlp.core.config import PlannerConfig
+from dsmpepc_nlp.core.solver_config import SolverConfig
 
 
 def test_demo_cycles_are_reproducible_and_move_the_robot():

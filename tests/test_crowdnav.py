@@ -74,7 +74,8 @@ def test_episodes_are_crowdnavs_test_cases(case):
 def test_no_deadlock_rule_a_stalled_robot_times_out():
     # a robot too slow to make 0.1 m of progress in 10 s: the loop's rule calls it a deadlock
     # at 10 s; the CrowdNav protocol (no deadlock rule) lets it run to the end: a timeout
-    from dsmpepc_nlp.core.config import PlannerConfig, RobotConfig, SolverConfig
+    from dsmpepc_nlp.core.config import PlannerConfig, RobotConfig
+    from dsmpepc_nlp.core.solver_config import SolverConfig
     from dsmpepc_nlp.sim.outcomes import OutcomeConfig
     from dsmpepc_nlp.sim.simulate import simulate
     from dsmpepc_nlp.sim.types import Agent, FixedGoal, Scenario

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from dsmpepc_nlp import cli
-from dsmpepc_nlp.bench import crowds
+from dsmpepc_nlp.bench import crowd_rows, crowds
 
 
 def write_recording(path, n_steps=150, first_frame=0):
@@ -113,7 +113,7 @@ def test_summary_ignores_runs_that_met_no_pedestrian():
     rows = [{"outcome": "success", "min_distance": 0.5, "time_to_goal": 5.0},
             {"outcome": "collision", "min_distance": -0.1},
             {"outcome": "success", "min_distance": 9000.0, "time_to_goal": 7.0}]
-    summary = crowds.summarise(rows)
+    summary = crowd_rows.summarise(rows)
     assert summary["min_distance_mean"] == pytest.approx(0.2)
     assert summary["min_distance"] == -0.1 and summary["episodes_with_pedestrians"] == 2
     assert summary["time_to_goal"] == 6.0 and summary["collision_rate"] == pytest.approx(1 / 3)
@@ -124,14 +124,15 @@ def test_summary_splits_collisions_by_fault():
             {"outcome": "collision", "collision_kind": "struck", "spl": 0.0},
             {"outcome": "collision", "collision_kind": "struck", "spl": 0.0},
             {"outcome": "success", "collision_kind": None, "spl": 0.8}]
-    summary = crowds.summarise(rows)
+    summary = crowd_rows.summarise(rows)
     assert summary["collision_rate"] == 0.75 and summary["success_rate"] == 0.25
     assert summary["at_fault_rate"] == 0.25 and summary["struck_rate"] == 0.5
     assert summary["spl"] == pytest.approx(0.2)
 
 
 def test_contact_age_tells_a_pedestrian_who_appeared_beside_the_robot(tmp_path):
-    from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
+    from dsmpepc_nlp.core.config import PlannerConfig, RobotState
+    from dsmpepc_nlp.core.solver_config import SolverConfig
     from dsmpepc_nlp.sim.simulate import simulate
     from dsmpepc_nlp.sim.types import Agent, FixedGoal, Pedestrian, Scenario
 
@@ -147,12 +148,12 @@ def test_contact_age_tells_a_pedestrian_who_appeared_beside_the_robot(tmp_path):
 
     popped = run(1.3)  # appears where the robot, at about 1 m/s, is 0.3 m later
     assert popped.outcomes == ["collision"]
-    assert crowds.contact_age(popped) < crowds.APPEARED
+    assert crowd_rows.contact_age(popped) < crowd_rows.APPEARED
     clear = run(0.1)   # there from the start: the robot stops in front of it
-    assert clear.outcomes != ["collision"] and np.isnan(crowds.contact_age(clear))
+    assert clear.outcomes != ["collision"] and np.isnan(crowd_rows.contact_age(clear))
     rows = [{"outcome": "collision", "collision_kind": "at-fault", "contact_age": 0.2},
             {"outcome": "collision", "collision_kind": "at-fault", "contact_age": 3.0},
             {"outcome": "success", "collision_kind": None, "contact_age": None}]
-    summary = crowds.summarise(rows)
+    summary = crowd_rows.summarise(rows)
     assert summary["at_fault_rate"] == pytest.approx(2 / 3)
     assert summary["at_fault_appeared_rate"] == pytest.approx(1 / 3)

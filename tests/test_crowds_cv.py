@@ -8,7 +8,8 @@ import pytest
 
 from dsmpepc_nlp import cli
 from dsmpepc_nlp.bench import cv
-from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState
+from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, World
 from dsmpepc_nlp.sim.metrics import min_dynamic_clearance
 from dsmpepc_nlp.sim.outcomes import OutcomeConfig

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState
+from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import OccupancyGrid
 from dsmpepc_nlp.sim.simulate import simulate
 from dsmpepc_nlp.sim.types import Agent, FixedGoal, ParkedRobot, Pedestrian, Scenario

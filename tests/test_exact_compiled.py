@@ -18,14 +18,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from dsmpepc_nlp.core.config import (
-    TERM_NAMES,
-    VARIANTS,
-    CostConfig,
-    PlannerConfig,
-    RobotConfig,
-    RobotState,
-)
+from dsmpepc_nlp.core.config import VARIANTS, PlannerConfig, RobotConfig, RobotState
+from dsmpepc_nlp.core.cost_config import TERM_NAMES, CostConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 from dsmpepc_nlp.solve import cache, exact
 from dsmpepc_nlp.solve.cycle import PARAMETERS, Cycle

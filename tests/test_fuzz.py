@@ -12,7 +12,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from dsmpepc_nlp.core.config import PlannerConfig, RobotConfig, RobotState, SolverConfig
+from dsmpepc_nlp.core.config import PlannerConfig, RobotConfig, RobotState
+from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 from dsmpepc_nlp.sim.outcomes import OUTCOMES
 from dsmpepc_nlp.sim.simulate import simulate

@@ -14,7 +14,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "dsmpepc_nlp"
 
 MAX_MODULE_LINES = 400
-"""A longer module gives its reason in its docstring, in a sentence "Longer than ... 400 lines"."""
+"""Lines of a module, docstring and all: no exception."""
 MAX_FUNCTION_LINES = 80
 """Lines of a function's body, its docstring left out."""
 
@@ -35,14 +35,9 @@ def test_import_contracts_hold():
 
 
 @pytest.mark.parametrize("path", _modules(), ids=lambda p: str(p.relative_to(PACKAGE)))
-def test_module_is_small_or_says_why(path):
-    source = path.read_text()
-    lines = len(source.splitlines())
-    if lines <= MAX_MODULE_LINES:
-        return
-    docstring = ast.get_docstring(ast.parse(source)) or ""
-    assert re.search(r"Longer than[^.]*400 lines", docstring), (
-        f"{path.name} has {lines} lines: split it, or give the reason in its docstring")
+def test_module_is_small(path):
+    lines = len(path.read_text().splitlines())
+    assert lines <= MAX_MODULE_LINES, f"{path.name} has {lines} lines: split it by idea"
 
 
 def _body_lines(node) -> int:
@@ -85,7 +80,9 @@ def test_readme_layout_table_names_every_module():
     readme = (ROOT / "README.md").read_text()
     table = readme[readme.index("## Layout"):]
     table = table[:table.index("\n## ", 1)]
-    named = set(re.findall(r"`([a-z_]+\.py)`", table))
+    # A module of a sub-package is named with its folder (`graph/layout.py`); tools and tests
+    # named beside the table are not modules.
+    named = set(re.findall(r"`(?:(?!tools/|tests/)[a-z_]+/)?([a-z_]+\.py)`", table))
     modules = {p.name for p in _modules() if p.name != "__init__.py"}
     assert modules - named == set(), "modules the README's layout table does not name"
     assert named - modules == set(), "names in the README's layout table with no module"

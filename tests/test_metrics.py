@@ -7,8 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.jsonio import json_clean
+from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import OccupancyGrid
 from dsmpepc_nlp.sim.metrics import (
     collision_kind,

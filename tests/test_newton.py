@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.core import config as config_module
+from dsmpepc_nlp.core import solver_config
 from dsmpepc_nlp.solve import newton
 from dsmpepc_nlp.solve.cycle import Cycle
 from dsmpepc_nlp.solve.newton import box_qp, box_qp_reference, minimize
@@ -73,13 +73,14 @@ def test_minimize_never_accepts_an_increase():
     assert result.fun <= _rosenbrock(np.array([-1.2, 1.0]))
 
 
-@pytest.mark.skipif("newton" not in config_module.SOLVER_METHODS,
+@pytest.mark.skipif("newton" not in solver_config.SOLVER_METHODS,
                     reason="SolverConfig does not offer method='newton' yet")
 def test_newton_nlp_solver_records_are_finite_and_in_the_box(monkeypatch):
-    from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
+    from dsmpepc_nlp.core.config import PlannerConfig, RobotState
+    from dsmpepc_nlp.core.solver_config import SolverConfig
     from dsmpepc_nlp.core.world import DynamicObstacle, World
+    from dsmpepc_nlp.solve.graph import GraphSizes
     from dsmpepc_nlp.solve.nlp import NlpSolver
-    from dsmpepc_nlp.solve.nlp_global import GraphSizes
     from dsmpepc_nlp.solve.sampling import structured_starts
 
     monkeypatch.setenv("DSMPEPC_NO_COMPILE", "1")      # the logic, on the virtual machine

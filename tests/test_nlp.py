@@ -1,32 +1,28 @@
 """The NLP graph (smooth -> exact, CasADi == numpy assemble) and the multi-start solver.
 
 The solver tests run the graph in CasADi's virtual machine on a small configuration (the
-solver logic does not depend on compiled code; ``test_nlp_global.py`` holds the compiled
+solver logic does not depend on compiled code; ``test_graph.py`` holds the compiled
 functions to the virtual machine)."""
 
 import casadi as ca
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.core.config import (
-    TERM_NAMES,
-    PlannerConfig,
-    RobotState,
-    SmoothingConfig,
-    SolverConfig,
-)
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.control_law import rollout
+from dsmpepc_nlp.core.cost_config import TERM_NAMES, SmoothingConfig
 from dsmpepc_nlp.core.costs import assemble, evaluate, exact_geometry
 from dsmpepc_nlp.core.smooth import CASADI
+from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
-from dsmpepc_nlp.solve import nlp_global
+from dsmpepc_nlp.solve import graph
 from dsmpepc_nlp.solve.cycle import Cycle
+from dsmpepc_nlp.solve.graph import cost_function
 from dsmpepc_nlp.solve.nlp import NlpSolver
-from dsmpepc_nlp.solve.nlp_global import cost_function
 from dsmpepc_nlp.solve.sampling import SamplingPlanner, structured_starts
 
 CONFIG = PlannerConfig()
-SMALL = nlp_global.GraphSizes(max_objects=3, table_cells=64, ray_samples=8)
+SMALL = graph.GraphSizes(max_objects=3, table_cells=64, ray_samples=8)
 BUCKETS = dict(pose_object_buckets=(3,))
 
 
@@ -49,7 +45,7 @@ def _open_world():
 def _graph_costs(z, state, world, goal, smoothing, sizes=SMALL):
     """Graph cost of each z (the global graph: the cycle's parameters, any z)."""
     f = cost_function(CONFIG, sizes, smoothing)
-    params = nlp_global.pack_parameters(Cycle.prepare(state, world, goal, CONFIG), sizes)
+    params = graph.pack_parameters(Cycle.prepare(state, world, goal, CONFIG), sizes)
     return np.array([float(f(z=zi, **params)["cost"]) for zi in z])
 
 
@@ -168,7 +164,7 @@ def test_robot_starting_in_collision_does_not_move():
 def test_cost_function_has_named_terms():
     f = cost_function(CONFIG, SMALL)
     assert f.name_out() == ["cost", *TERM_NAMES]
-    assert f.name_in() == ["z", *nlp_global.PARAMETER_NAMES]
+    assert f.name_in() == ["z", *graph.PARAMETER_NAMES]
 
 
 def test_hessian_is_finite_at_stop_and_in_collision():
@@ -215,6 +211,7 @@ def test_polish_never_returns_worse_than_the_best_candidate_and_costs_exactly():
 def test_the_polish_leaves_out_candidates_trailing_the_best_by_more_than_its_margin(
         monkeypatch, margin, seeds):
     from dsmpepc_nlp.solve import nlp
+    from dsmpepc_nlp.solve.polish import NEIGHBOURS
     from dsmpepc_nlp.solve.records import StartRecord
 
     state, world, goal = _demo_cycle()
@@ -233,14 +230,15 @@ def test_the_polish_leaves_out_candidates_trailing_the_best_by_more_than_its_mar
         return original(z, cycle_, **options)
 
     monkeypatch.setattr(nlp, "exact_totals", counted)
-    rows = len(nlp._NEIGHBOURS)
+    rows = len(NEIGHBOURS)
     for threads in (1, 2):
         solver = NlpSolver(CONFIG, SolverConfig.fast(
             polish_margin=margin, polish_starts=5, polish_rounds=2, parallel_rows=7,
             pair_budget=123_456, solve_threads=threads, **BUCKETS), SMALL)
         batches.clear()
-        solver._polish(records, cycle)
+        solver.polish.run(records, cycle)
         assert budgets == {123_456}
+        assert len(solver.polish.last["threads"]) == min(threads, seeds)
         if threads == 1 or seeds == 1:      # one batch a round, with the configuration's
             assert batches == [(seeds * rows, 7)] * 2       # parallel_rows, not the default
         else:                       # the walks shared out over both threads, one core each
@@ -282,7 +280,7 @@ def test_polishing_ahead_on_the_idle_thread_gives_the_same_plan(monkeypatch, met
     import time
 
     from dsmpepc_nlp.bench.scenes import demo_cycles
-    from dsmpepc_nlp.solve import ipopt, newton, nlp, threads
+    from dsmpepc_nlp.solve import ipopt, newton, threads
 
     if compile_:
         _compile_afresh(monkeypatch)
@@ -304,13 +302,6 @@ def test_polishing_ahead_on_the_idle_thread_gives_the_same_plan(monkeypatch, met
     for module in (ipopt, newton):
         monkeypatch.setattr(module, "run_starts", last_start_late)
     ahead_rounds = []
-    original = nlp.NlpSolver._polish_walks
-
-    def counted(self, records, cycle, walks, busy):
-        original(self, records, cycle, walks, busy)
-        ahead_rounds.append(sum(w.rounds for w in walks.values()))
-
-    monkeypatch.setattr(nlp.NlpSolver, "_polish_walks", counted)
     knobs = dict(n_spread=2, max_iter=4, n_screen=16, n_solved=3, solve_threads=2,
                  polish_rounds=4, polish_margin=np.inf, **BUCKETS)   # solves stopped short
     make = SolverConfig.fast if method == "newton" else SolverConfig
@@ -321,6 +312,8 @@ def test_polishing_ahead_on_the_idle_thread_gives_the_same_plan(monkeypatch, met
         cycle = Cycle.prepare(state, world, goal, CONFIG)
         starts = structured_starts(state, goal, CONFIG)
         one, two = ahead.solve(cycle, starts), after.solve(cycle, starts)
+        ahead_rounds.append(ahead.polish.last["ahead_rounds"])
+        assert after.polish.last["ahead_rounds"] == 0
         polished += one[-1].name == "polish"
         _assert_same_records(one, two)
     assert ahead_rounds and max(ahead_rounds) > 0 and polished > 0
@@ -344,13 +337,13 @@ def test_screening_while_the_warm_start_solves_gives_the_same_plan(monkeypatch, 
         _compile_afresh(monkeypatch)
     events = []
     lock = threading.Lock()
-    original_exact = nlp.NlpSolver._exact
+    original_exact = nlp.exact_totals
 
-    def slow_screen(self, z, cycle, one_thread=False):
+    def slow_screen(z, cycle, **options):
         screening = len(z) > 24                 # the screen, not a verdict or a polish round
         if screening:
             time.sleep(0.02)
-        costs = original_exact(self, z, cycle, one_thread)
+        costs = original_exact(z, cycle, **options)
         if screening:
             with lock:
                 events.append("screened")
@@ -363,7 +356,7 @@ def test_screening_while_the_warm_start_solves_gives_the_same_plan(monkeypatch, 
             return solve(i, slot)
         return threads.run_starts(run, n, slots, idle, more)
 
-    monkeypatch.setattr(nlp.NlpSolver, "_exact", slow_screen)
+    monkeypatch.setattr(nlp, "exact_totals", slow_screen)
     for module in (ipopt, newton):
         monkeypatch.setattr(module, "run_starts", recorded)
     knobs = dict(n_spread=2, max_iter=4, n_screen=32, n_solved=3, solve_threads=2,
@@ -397,17 +390,6 @@ def test_the_screen_keeps_both_cores_unless_a_solve_runs_beside_it(monkeypatch, 
     """The screen runs on one core only while the warm start solves on the other; the fast
     method's Python loop (here with the difference Hessian) lists its starts first, and then
     the screen has both cores."""
-    from dsmpepc_nlp.solve import nlp
-
-    seen = []
-    original = nlp.NlpSolver._exact
-
-    def spy(self, z, cycle, one_thread=False):
-        if len(z) > 24:
-            seen.append(one_thread)
-        return original(self, z, cycle, one_thread)
-
-    monkeypatch.setattr(nlp.NlpSolver, "_exact", spy)
     make = SolverConfig.fast if method == "newton" else SolverConfig
     solver = NlpSolver(CONFIG, make(n_spread=2, max_iter=3, n_screen=32, n_solved=2,
                                     solve_threads=2, polish_rounds=0, hessian=hessian,
@@ -417,7 +399,7 @@ def test_the_screen_keeps_both_cores_unless_a_solve_runs_beside_it(monkeypatch, 
     previous = (rollout(np.array([1.0, 0.0, 0.0, 0.5]), state, CONFIG).target, 0.5)
     records = solver.solve(cycle, structured_starts(state, goal, CONFIG, previous))
     assert any(r.name == "warm" and r.status != "screened" for r in records)
-    assert seen == [beside]
+    assert solver.last_screen == {"rows": len(records), "one_thread": beside}
 
 
 @pytest.mark.parametrize("hessian", ["differences", "quasi-newton"])
@@ -452,21 +434,11 @@ def test_the_final_polish_shares_its_walks_over_the_threads_and_ends_the_same(mo
     """The final polish's walks run on both threads, each walk's rounds on one of them, and
     every record (the polish's winner included) is the same to the bit as when one thread
     walks them all in one batch a round."""
-    import threading
 
     from dsmpepc_nlp.bench.scenes import demo_cycles
-    from dsmpepc_nlp.solve import nlp
 
     if compile_:
         _compile_afresh(monkeypatch)
-    walkers = []
-    original = nlp.NlpSolver._walk_rounds
-
-    def seen(self, walks, cycle, one_thread=False):
-        walkers.append((threading.current_thread().name, len(walks)))
-        original(self, walks, cycle, one_thread)
-
-    monkeypatch.setattr(nlp.NlpSolver, "_walk_rounds", seen)
     knobs = dict(n_spread=2, max_iter=4, n_screen=16, n_solved=3, polish_ahead=False,
                  polish_starts=4, polish_rounds=4, polish_margin=np.inf, **BUCKETS)
     shared = NlpSolver(CONFIG, SolverConfig(solve_threads=2, **knobs), SMALL)
@@ -474,11 +446,10 @@ def test_the_final_polish_shares_its_walks_over_the_threads_and_ends_the_same(mo
     for state, world, goal in demo_cycles(CONFIG, 3, seed=0, n_samples=64):
         cycle = Cycle.prepare(state, world, goal, CONFIG)
         starts = structured_starts(state, goal, CONFIG)
-        walkers.clear()
         one = shared.solve(cycle, starts)
+        walkers = shared.polish.last["threads"]
         assert any(name.startswith("dsmpepc-walks") for name, _ in walkers)
         assert len(walkers) == 2 and sum(n for _, n in walkers) >= 2
-        walkers.clear()
         two = alone.solve(cycle, starts)
-        assert len(walkers) == 1
+        assert len(alone.polish.last["threads"]) == 1
         _assert_same_records(one, two)

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from dsmpepc_nlp.core import control_law
-from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState
+from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import OccupancyGrid, World
 from dsmpepc_nlp.solve import planner as planner_module
 from dsmpepc_nlp.solve.cycle import Cycle

@@ -7,8 +7,9 @@ import warnings
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.errors import InputError
+from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 from dsmpepc_nlp.solve import planner as planner_module
 from dsmpepc_nlp.solve.planner import FALLBACK_WARNING, Planner

@@ -4,7 +4,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState
+from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import OccupancyGrid, World
 from dsmpepc_nlp.sim.panels import cost_panels
 from dsmpepc_nlp.sim.simulate import simulate

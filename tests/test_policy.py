@@ -4,7 +4,8 @@ stage's exception through instead of a fallback plan (issue 30)."""
 import pytest
 
 from dsmpepc_nlp.bench.cv import ConstantVelocityPlanner
-from dsmpepc_nlp.core.config import RobotState, SolverConfig
+from dsmpepc_nlp.core.config import RobotState
+from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import World
 from dsmpepc_nlp.solve import planner as planner_module
 from dsmpepc_nlp.solve.planner import Planner

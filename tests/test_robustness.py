@@ -5,8 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.core.config import PlannerConfig, RobotState, SolverConfig
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.errors import InputError
+from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 from dsmpepc_nlp.solve.cycle import Cycle
 from dsmpepc_nlp.solve.planner import Planner

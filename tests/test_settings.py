@@ -6,20 +6,13 @@ import math
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.core.config import (
-    TERM_NAMES,
-    ControlLawConfig,
-    CostConfig,
-    HorizonConfig,
-    PlannerConfig,
-    RobotConfig,
-    SmoothingConfig,
-    SolverConfig,
-)
+from dsmpepc_nlp.core.config import ControlLawConfig, HorizonConfig, PlannerConfig, RobotConfig
 from dsmpepc_nlp.core.control_law import rollout
+from dsmpepc_nlp.core.cost_config import TERM_NAMES, CostConfig, SmoothingConfig
 from dsmpepc_nlp.core.costs import evaluate
+from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.solve import cache, compiled, settings
-from dsmpepc_nlp.solve import nlp_global as g
+from dsmpepc_nlp.solve import graph as g
 from dsmpepc_nlp.solve.cycle import Cycle
 from dsmpepc_nlp.solve.problem import structure_key
 
@@ -132,15 +125,16 @@ def test_a_settings_layout_change_gives_a_new_library_key(monkeypatch):
 
 def test_source_closure_is_derived_from_the_imports(tmp_path, monkeypatch):
     monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
-    names = {p.name for p in cache.source_closure("dsmpepc_nlp.solve.nlp_global")}
+    names = {p.name for p in cache.source_closure("dsmpepc_nlp.solve.graph.build")}
     # The graph's own modules and what they import, not the planner that uses them.
-    assert {"nlp_global.py", "settings.py", "costs.py", "control_law.py", "smooth.py",
-            "cycle.py", "config.py"} <= names
+    assert {"build.py", "pieces.py", "geometry.py", "layout.py", "settings.py", "costs.py",
+            "control_law.py", "smooth.py", "cycle.py", "config.py"} <= names
     assert "planner.py" not in names and "simulate.py" not in names
-    kernel = {p.name for p in cache.source_closure("dsmpepc_nlp.solve._exact_kernel")}
-    assert "cycle.py" in kernel           # the kernel freezes cycle.PARAMETERS' positions
-    first = cache.sources_hash("dsmpepc_nlp.solve._exact_kernel")
-    assert cache.sources_hash("dsmpepc_nlp.solve._exact_kernel") == first   # memo read back
+    kernel = {p.name for p in cache.source_closure("dsmpepc_nlp.solve.kernel.costs")}
+    # The kernel's modules, and cycle.py: the kernel freezes cycle.PARAMETERS' positions.
+    assert {"cycle.py", "layout.py", "law.py", "geometry.py", "costs.py"} <= kernel
+    first = cache.sources_hash("dsmpepc_nlp.solve.kernel.costs")
+    assert cache.sources_hash("dsmpepc_nlp.solve.kernel.costs") == first   # memo read back
 
 
 def test_sources_hash_follows_an_edit(tmp_path, monkeypatch):
@@ -151,10 +145,10 @@ def test_sources_hash_follows_an_edit(tmp_path, monkeypatch):
     shutil.copytree(cache._PACKAGE, package, ignore=shutil.ignore_patterns("__pycache__"))
     monkeypatch.setattr(cache, "_PACKAGE", package)
     monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path / "cache"))
-    before = cache.sources_hash("dsmpepc_nlp.solve._exact_kernel")
+    before = cache.sources_hash("dsmpepc_nlp.solve.kernel.costs")
     cycle = package / "solve" / "cycle.py"
     cycle.write_text(cycle.read_text() + "\n# an edit\n")
-    assert cache.sources_hash("dsmpepc_nlp.solve._exact_kernel") != before
+    assert cache.sources_hash("dsmpepc_nlp.solve.kernel.costs") != before
 
 
 def test_two_checkouts_sharing_a_cache_keep_their_own_hashes(tmp_path, monkeypatch):
@@ -172,7 +166,7 @@ def test_two_checkouts_sharing_a_cache_keep_their_own_hashes(tmp_path, monkeypat
             cycle = package / "solve" / "cycle.py"
             cycle.write_text(cycle.read_text() + "\n# other code\n")
         monkeypatch.setattr(cache, "_PACKAGE", package)
-        hashes[name] = cache.sources_hash("dsmpepc_nlp.solve._exact_kernel")
+        hashes[name] = cache.sources_hash("dsmpepc_nlp.solve.kernel.costs")
     assert hashes["a"] != hashes["b"]
 
 

@@ -6,13 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.core.config import (
-    DockingConfig,
-    PlannerConfig,
-    RobotConfig,
-    RobotState,
-    SolverConfig,
-)
+from dsmpepc_nlp.core.config import DockingConfig, PlannerConfig, RobotConfig, RobotState
+from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import OccupancyGrid
 from dsmpepc_nlp.sim.episode import Episode
 from dsmpepc_nlp.sim.simulate import simulate

@@ -6,14 +6,9 @@ import dataclasses
 import pytest
 
 from dsmpepc_nlp.bench.params import configure
-from dsmpepc_nlp.core.config import (
-    DockingConfig,
-    PlannerConfig,
-    RobotState,
-    SolverConfig,
-    StallConfig,
-)
+from dsmpepc_nlp.core.config import DockingConfig, PlannerConfig, RobotState, StallConfig
 from dsmpepc_nlp.core.errors import InputError
+from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, World
 from dsmpepc_nlp.solve import docking
 from dsmpepc_nlp.solve.cycle import Cycle

@@ -12,8 +12,9 @@ import math
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.core.config import CostConfig, PlannerConfig
+from dsmpepc_nlp.core.config import PlannerConfig
 from dsmpepc_nlp.core.control_law import Trajectory
+from dsmpepc_nlp.core.cost_config import CostConfig
 from dsmpepc_nlp.core.costs import evaluate, inverse_ttg, inverse_ttg_along_nf
 from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.world import OccupancyGrid, World
@@ -125,7 +126,7 @@ def test_on_the_goal_the_time_to_goal_is_zero():
 def test_the_smooth_form_approaches_the_exact_one():
     phi, nf, ex, ey = 0.7, 3.2, 0.6, 0.8
     exact = inverse_ttg_along_nf(nf, ex, ey, phi, SPEED)
-    from dsmpepc_nlp.core.config import SmoothingConfig
+    from dsmpepc_nlp.core.cost_config import SmoothingConfig
     from dsmpepc_nlp.core.smooth import CASADI
 
     ca = pytest.importorskip("casadi")
@@ -141,8 +142,8 @@ def _random_z(config, n, seed):
 
 
 def _global_terminal(config, state, world, z):
-    from dsmpepc_nlp.core.config import SmoothingConfig
-    from dsmpepc_nlp.solve import nlp_global as g
+    from dsmpepc_nlp.core.cost_config import SmoothingConfig
+    from dsmpepc_nlp.solve import graph as g
     from dsmpepc_nlp.solve.cycle import Cycle
 
     sizes = g.GraphSizes()
@@ -172,7 +173,7 @@ def test_the_global_graph_reads_the_switch_as_the_exact_cost_does():
     paper = _global_terminal(paper_config, state, world, z)
     # The graph reads the terminal 1/TTC from a sampled ray and the static TTC along the
     # trajectory from a tangent plane: the paper's form is off by up to 0.02 for that alone
-    # (tests/test_nlp_global.py); the NF form adds nothing to it.
+    # (tests/test_graph.py); the NF form adds nothing to it.
     assert np.max(np.abs(ours - exact)) < 0.02
     assert np.max(np.abs(ours - exact)) <= np.max(np.abs(paper - exact_paper)) + 1e-3
     assert np.max(np.abs(exact - exact_paper)) > 0.1 and np.max(np.abs(ours - paper)) > 0.1

@@ -29,7 +29,8 @@ from dsmpepc_nlp import (
     RobotState,
     World,
 )
-from dsmpepc_nlp.core.config import CostConfig, RobotConfig, SmoothingConfig
+from dsmpepc_nlp.core.config import RobotConfig
+from dsmpepc_nlp.core.cost_config import CostConfig, SmoothingConfig
 
 
 def random_config(rng) -> PlannerConfig:

@@ -31,8 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.config import PlannerConfig, RobotConfig, RobotState, SolverConfig
+from ..core.config import PlannerConfig, RobotConfig, RobotState
 from ..core.errors import InputError
+from ..core.solver_config import SolverConfig
 from ..core.world import OccupancyGrid
 from ..sim.metrics import episode_metrics
 from ..sim.simulate import simulate

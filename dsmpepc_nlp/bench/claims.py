@@ -32,9 +32,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.config import SolverConfig
 from ..core.files import atomic_write_text
 from ..core.jsonio import dumps
+from ..core.solver_config import SolverConfig
 from ..sim import families
 from ..sim.scenario import load_scenario
 from ..sim.simulate import simulate

@@ -22,10 +22,11 @@ from pathlib import Path
 import numpy as np
 
 from ..core import options
-from ..core.config import SOLVER_NAMES, VARIANTS, SolverConfig
+from ..core.config import VARIANTS
 from ..core.errors import InputError
 from ..core.jsonio import json_clean
 from ..core.progress import EpisodeProgress, say
+from ..core.solver_config import SOLVER_NAMES, SolverConfig
 from ..sim.scenario import load_scenario
 from ..sim.simulate import simulate
 from ..viz import figures

@@ -8,7 +8,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.config import PlannerConfig, SolverConfig
+from ..core.config import PlannerConfig
+from ..core.solver_config import SolverConfig
 
 
 @dataclass(frozen=True)

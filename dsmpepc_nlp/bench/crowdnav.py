@@ -53,14 +53,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.config import PlannerConfig, RobotConfig, RobotState, SolverConfig
+from ..core.config import PlannerConfig, RobotConfig, RobotState
 from ..core.errors import InputError
+from ..core.solver_config import SolverConfig
 from ..sim.metrics import DISCOMFORT_GAP, swept_contact_time
 from ..sim.outcomes import OutcomeConfig
 from ..sim.simulate import simulate
 from ..sim.types import Agent, FixedGoal, Scenario
 from ..solve.planner import Planner
-from .crowds import measured_row, run_variants
+from .crowd_rows import measured_row, run_variants
 from .cv import CROWD_BASELINES, ConstantVelocityPlanner
 from .orca import OrcaPlanner, check_variants, require_pyrvo
 from .params import config_meta, planner_config
@@ -379,7 +380,7 @@ def run_benchmark(settings: CrowdNavSettings, variants, episodes: int, seed: int
     """Every (variant, episode) into ``out_dir/crowdnav.{json,csv}``; the summary.
 
     The first variant's figures are at the top level, every variant's under ``variants``
-    (:func:`~dsmpepc_nlp.bench.crowds.summarise`: success, at-fault and struck collisions,
+    (:func:`~dsmpepc_nlp.bench.crowd_rows.summarise`: success, at-fault and struck collisions,
     timeout, deadlock, time, SPL, distances, discomfort, jerk, plan time).
     """
     check_variants(variants, CROWD_BASELINES)

@@ -1,6 +1,6 @@
 """ETH/UCY pedestrian recordings as crowd-crossing scenarios, and the crowd benchmark.
 
-File format (``/work/shared/data/ethucy/FORMAT.md``): tab-separated ``frame ped_id x y``, all
+File format (the FORMAT.md beside the ETH/UCY data): tab-separated ``frame ped_id x y``, all
 written as floats, metres, one annotation step every 10 frames = 0.4 s.
 
 A scenario is a time window of a recording. The pedestrians whose tracks overlap the window are
@@ -14,31 +14,26 @@ the first second.
 
 eth (``biwi_eth``): its median walking speed at 0.4 s per step is 2.45 m/s, twice any other
 scene (FORMAT.md). We rescale time: eth steps are taken as 0.8 s, which gives 1.23 m/s.
-
-Longer than 400 lines: besides the replay it holds the row and summary functions every crowd
-benchmark shares (the CrowdNav protocol imports them), which read the replay's ``OFFSTAGE``
-convention; splitting them off would split that convention across two modules.
 """
 
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from ..core.config import PlannerConfig, RobotConfig, RobotState, SolverConfig
+from ..core.config import PlannerConfig, RobotConfig, RobotState
 from ..core.errors import InputError
-from ..sim.metrics import episode_metrics
+from ..core.solver_config import SolverConfig
 from ..sim.simulate import simulate
 from ..sim.types import Agent, FixedGoal, Pedestrian, Scenario
+from .crowd_rows import OFFSTAGE, contact_age, measured_row, run_variants
 from .cv import CROWD_BASELINES, ConstantVelocityPlanner
 from .orca import check_variants, simulate_orca
 from .params import config_meta, planner_config
-from .results import ResultTable, keep_failure
-from .runner import mean, outcome_rates, plan_time_summary, run_all
+from .results import ResultTable
 
 FRAMES_PER_STEP = 10
 """Frame ids advance by this much per annotation step."""
@@ -46,8 +41,6 @@ STEP_TIME = 0.4
 """Seconds per annotation step (2.5 Hz)."""
 STEP_TIME_OVERRIDES = {"biwi_eth": 0.8}
 """Recordings whose step is rescaled (FORMAT.md's caveat on eth's speed), s."""
-OFFSTAGE = (1.0e4, 1.0e4)
-"""Where pedestrians wait before their track starts and after it ends, m."""
 JUMP = 0.01
 """Time taken by the jump between the stage and ``OFFSTAGE``, s."""
 PEDESTRIAN_RADIUS = 0.3
@@ -56,9 +49,6 @@ DEFAULT_DURATION = 30.0
 """Episode length, s."""
 SCENES = ("eth", "hotel", "univ", "zara1", "zara2")
 """Scene folders of the standard split."""
-APPEARED = 1.0
-"""A pedestrian on stage for less than this at contact appeared beside the robot (its track
-began there, out of nowhere), s: braking from 1 m/s at 1.5 m/s^2 alone takes 0.67 s."""
 
 
 @dataclass(frozen=True)
@@ -300,86 +290,6 @@ def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int,
                         keep=(out_dir, f"crowd-{settings.scene}-{variant}-{seed}-{episode}"))
 
 
-def contact_age(episode, robot: int = 0) -> float:
-    """How long (s) the pedestrian the robot collided with had been on stage at the contact;
-    NaN without a collision with a pedestrian (the touched one: the smallest gap then)."""
-    if episode.outcomes[robot] != "collision" or not episode.ped_radii.size:
-        return math.nan
-    k = int(np.searchsorted(episode.times, episode.outcome_times[robot] - 1e-9))
-    gaps = np.linalg.norm(episode.ped_positions[k] - episode.states[robot, k, :2], axis=1) \
-        - episode.ped_radii
-    j = int(np.argmin(gaps))
-    offstage = np.linalg.norm(episode.ped_positions[:k + 1, j], axis=1) > OFFSTAGE[0] / 10
-    gone = np.flatnonzero(offstage)
-    return float(episode.times[k] - (episode.times[gone[-1] + 1] if gone.size else 0.0))
-
-
-def measured_row(row: dict, run, extra=None, keep=(None, "")) -> dict:
-    """``row`` with the :func:`crowd_fields` of the episode ``run()`` returns (and
-    ``extra(episode)``) and its ``wall_time``; ``outcome="error"`` and the message when ``run``
-    raises (an ImportError, a missing extra, propagates). Shared by the crowd benchmarks.
-    ``keep = (out_dir, stem)``: where an unsuccessful episode is kept (:func:`keep_failure`)."""
-    started = time.perf_counter()
-    try:
-        episode = run()
-        row.update(crowd_fields(episode_metrics(episode)[0]))
-        if extra is not None:
-            row.update(extra(episode))
-        row["episode_file"] = keep_failure(episode, *keep)
-    except ImportError:
-        raise
-    except Exception as exc:
-        row.update(outcome="error", message=f"{type(exc).__name__}: {exc}")
-    row["wall_time"] = time.perf_counter() - started
-    return row
-
-
-def crowd_fields(m: dict) -> dict:
-    """The fields of a crowd benchmark's row from one robot's metrics (``robot_metrics``).
-
-    Shared by every crowd benchmark (ETH/UCY replay, CrowdNav protocol) so that their tables
-    have the same columns: outcome, collision kind (at-fault / struck), times, SPL, distances,
-    discomfort, jerk and plan time.
-    """
-    return dict(outcome=m["outcome"], collision_kind=m["collision_kind"],
-                time=m["outcome_time"], time_to_goal=m["time_to_goal"],
-                path_length=m["path_length"], spl=m["spl"], discomfort=m["discomfort"],
-                min_distance=m["min_dynamic_clearance"], jerk=m["mean_linear_jerk"],
-                plan_time_median=m["plan_time_median"], plan_time_p95=m["plan_time_p95"])
-
-
-def summarise(rows) -> dict:
-    """CrowdNav-style figures of a list of rows (one variant).
-
-    ``success_rate`` counts any collision as a failure; ``collision_rate`` is split into
-    ``at_fault_rate`` and ``struck_rate`` (:func:`~dsmpepc_nlp.sim.metrics.collision_kind`).
-    ``spl`` is the mean over all episodes (0 for a failure), ``time_to_goal`` over successes;
-    plan times: :func:`~dsmpepc_nlp.bench.runner.plan_time_summary`. Replay only:
-    ``at_fault_appeared_rate`` counts the at-fault collisions with a pedestrian on stage for
-    less than :data:`APPEARED` (``contact_age``).
-    """
-    # A gap near OFFSTAGE means no pedestrian was on stage while the robot ran: not a distance.
-    met = [r for r in rows if r.get("min_distance") is not None
-           and r["min_distance"] < OFFSTAGE[0] / 10]
-    gaps = [r["min_distance"] for r in met]
-    n = len(rows)
-    kinds = [r.get("collision_kind") for r in rows]
-    return {"episodes": n, **outcome_rates(r["outcome"] for r in rows),
-            "at_fault_rate": kinds.count("at-fault") / n if n else math.nan,
-            "struck_rate": kinds.count("struck") / n if n else math.nan,
-            "at_fault_appeared_rate": sum(
-                1 for r in rows if r.get("collision_kind") == "at-fault"
-                and r.get("contact_age") is not None and r["contact_age"] < APPEARED) / n
-            if n else math.nan,
-            "time_to_goal": mean(rows, "time_to_goal", lambda r: r["outcome"] == "success"),
-            "spl": mean(rows, "spl"), "jerk": mean(rows, "jerk"),
-            "discomfort": mean(rows, "discomfort"),
-            "min_distance_mean": mean(met, "min_distance"),
-            "episodes_with_pedestrians": len(met),
-            "min_distance": float(np.min(gaps)) if gaps else math.nan,
-            **plan_time_summary(rows)}
-
-
 def run_benchmark(settings: CrowdSettings, variants, episodes: int, seed: int, out_dir, *,
                   workers=None, resume=False, overwrite=False, progress=True) -> dict:
     """Every (variant, episode) into ``out_dir/crowd.{json,csv}``; the summary.
@@ -400,15 +310,3 @@ def run_benchmark(settings: CrowdSettings, variants, episodes: int, seed: int, o
     return summary
 
 
-def run_variants(run_episode, settings, variants, episodes: int, seed: int, table, *, label,
-                 workers=None, progress=True) -> dict:
-    """:func:`~dsmpepc_nlp.bench.runner.run_all` over every (variant, episode) of a crowd
-    benchmark (``run_episode(settings, variant, episode, seed)``) into ``table``; the
-    :func:`summarise` of each variant's rows, by variant."""
-    run_all(run_episode, [(settings, v, e, seed, str(table.folder)) for v in variants
-                          for e in range(episodes)],
-            table, label=label, key=lambda task: (task[1], task[2], task[3]),
-            workers=workers, progress=progress,
-            describe=lambda row: f"{row['variant']} episode {row['episode']}: {row['outcome']}")
-    return {v: summarise([r for r in table.rows if r["variant"] == v and r["seed"] == seed
-                          and r["episode"] < episodes]) for v in variants}

@@ -16,13 +16,15 @@ import time
 
 import numpy as np
 
-from ..core.config import PlannerConfig, SmoothingConfig, SolverConfig
+from ..core.config import PlannerConfig
 from ..core.control_law import rollout
+from ..core.cost_config import SmoothingConfig
 from ..core.costs import evaluate
+from ..core.solver_config import SolverConfig
 from ..sim.scenario import load_scenario
 from ..sim.simulate import simulate
 from ..solve import compiled
-from ..solve import nlp_global as g
+from ..solve import graph as g
 from ..solve.cycle import Cycle
 from ..solve.planner import Planner
 from .crosscheck import crosscheck

@@ -26,9 +26,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.config import TERM_NAMES, VARIANTS, PlannerConfig, RobotState, SolverConfig
+from ..core.config import VARIANTS, PlannerConfig, RobotState
 from ..core.control_law import arc_step
+from ..core.cost_config import TERM_NAMES
 from ..core.errors import InputError, MissingExtra
+from ..core.solver_config import SolverConfig
 from ..sim.simulate import simulate
 
 INSTALL_HINT = 'the ORCA baseline needs pyrvo: pip install "dsmpepc_nlp[orca]"'

@@ -12,8 +12,9 @@ import math
 
 import numpy as np
 
-from ..core.config import PlannerConfig, RobotState, SolverConfig
+from ..core.config import PlannerConfig, RobotState
 from ..core.control_law import arc_step
+from ..core.solver_config import SolverConfig
 from ..core.world import DynamicObstacle, OccupancyGrid, World
 from ..solve.planner import Planner
 

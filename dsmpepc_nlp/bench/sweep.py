@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.config import SolverConfig
 from ..core.errors import InputError
+from ..core.solver_config import SolverConfig
 from ..sim.metrics import episode_metrics
 from ..sim.scenario import load_scenario
 from ..sim.simulate import simulate

@@ -13,7 +13,8 @@ import time
 
 import numpy as np
 
-from ..core.config import PlannerConfig, SolverConfig
+from ..core.config import PlannerConfig
+from ..core.solver_config import SolverConfig
 from ..solve import exact
 from ..solve.cycle import Cycle
 from ..solve.sampling import box_samples, evaluate_batch

@@ -1,8 +1,8 @@
 """Planner configuration: frozen, validated dataclasses whose defaults are docs/method.md's.
 
-Longer than the usual 400 lines: every tunable value of the method and of the solvers is a field
-here, with its unit, its source (paper, IROS 2012 or "our choice") and its validation, so that
-one file answers "what are the defaults and where do they come from".
+The cost's own fields (weights, widths, temperatures, the term table) are in
+:mod:`.cost_config`, the solvers' in :mod:`.solver_config`; every field carries its unit, its
+source (paper, IROS 2012 or "our choice") and its validation.
 """
 
 from __future__ import annotations
@@ -11,33 +11,9 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 
-from .errors import MAX_SIZE, MAX_SPEED, InputError, shown
-
-
-def _fail(owner: str, name: str, value, allowed: str) -> None:
-    raise InputError(f"{owner}.{name} = {shown(value)}: must be {allowed}")
-
-
-def _finite(owner, name, value, *, low=-math.inf, high=math.inf, low_open=False, allow_inf=False):
-    """Check a real number against an interval; raise InputError naming the field otherwise."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        _fail(owner, name, value, "a real number")
-    if math.isnan(number) or (math.isinf(number) and not allow_inf):
-        allowed = "a number or inf, not NaN" if allow_inf else "a finite number"
-        _fail(owner, name, value, allowed)
-    too_low = number <= low if low_open else number < low
-    if too_low or number > high:
-        left = "(" if low_open else "["
-        _fail(owner, name, value, f"in {left}{low}, {high}]")
-    return number
-
-
-def _validate_fields(instance, rules: dict) -> None:
-    owner = type(instance).__name__
-    for name, kwargs in rules.items():
-        object.__setattr__(instance, name, _finite(owner, name, getattr(instance, name), **kwargs))
+from .cost_config import TERM_NAMES, CostConfig, SmoothingConfig
+from .errors import MAX_SIZE, MAX_SPEED, InputError
+from .validation import fail, validate_fields
 
 
 @dataclass(frozen=True)
@@ -57,7 +33,7 @@ class RobotConfig:
     """Circles ``(cx, cy, radius)`` in the body frame, metres; one circle is a round robot."""
 
     def __post_init__(self):
-        _validate_fields(self, {
+        validate_fields(self, {
             "v_limit": dict(low=0.0, low_open=True, high=MAX_SPEED),
             "omega_limit": dict(low=0.0, low_open=True),
             "accel_limit": dict(low=0.0, low_open=True, allow_inf=True),
@@ -66,14 +42,14 @@ class RobotConfig:
         try:
             circles = tuple(tuple(float(c) for c in circle) for circle in self.footprint)
         except TypeError:
-            _fail("RobotConfig", "footprint", self.footprint,
+            fail("RobotConfig", "footprint", self.footprint,
                   "a sequence of (cx, cy, radius) triples")
         if not circles or any(len(c) != 3 for c in circles):
-            _fail("RobotConfig", "footprint", self.footprint,
+            fail("RobotConfig", "footprint", self.footprint,
                   "a non-empty sequence of (cx, cy, radius) triples")
         for cx, cy, radius in circles:
             if not all(abs(v) <= MAX_SIZE for v in (cx, cy, radius)) or not radius > 0:
-                _fail("RobotConfig", "footprint", self.footprint,
+                fail("RobotConfig", "footprint", self.footprint,
                       f"circles with |cx|, |cy| <= {MAX_SIZE:g} m and 0 < radius <= "
                       f"{MAX_SIZE:g} m")
         object.__setattr__(self, "footprint", circles)
@@ -110,7 +86,7 @@ class ControlLawConfig:
     """Distance to the target below which speed falls linearly to zero, m."""
 
     def __post_init__(self):
-        _validate_fields(self, {
+        validate_fields(self, {
             "k1": dict(low=0.0, low_open=True),
             "k2": dict(low=0.0, low_open=True),
             "beta": dict(low=0.0),
@@ -129,11 +105,11 @@ class HorizonConfig:
     """Number of steps N in the horizon."""
 
     def __post_init__(self):
-        _validate_fields(self, {"dt": dict(low=0.0, low_open=True, high=5.0)})
+        validate_fields(self, {"dt": dict(low=0.0, low_open=True, high=5.0)})
         if isinstance(self.n_steps, bool) or not isinstance(self.n_steps, int) or not (
             1 <= self.n_steps <= 500
         ):
-            _fail("HorizonConfig", "n_steps", self.n_steps, "an integer in [1, 500]")
+            fail("HorizonConfig", "n_steps", self.n_steps, "an integer in [1, 500]")
 
     @property
     def duration(self) -> float:
@@ -155,148 +131,14 @@ class BoundsConfig:
     """Largest |delta|, robot heading relative to the line of sight, rad."""
 
     def __post_init__(self):
-        _validate_fields(self, {
+        validate_fields(self, {
             "r_min": dict(low=0.0, low_open=True),
             "r_max": dict(low=0.0, low_open=True),
             "theta_max": dict(low=0.0, high=math.pi),
             "delta_max": dict(low=0.0, high=math.pi),
         })
         if self.r_max <= self.r_min:
-            _fail("BoundsConfig", "r_max", self.r_max, f"greater than r_min = {self.r_min}")
-
-
-TERM_NAMES = ("progress", "action", "collision", "heading", "terminal")
-"""The cost terms, in the order of docs/method.md section 5.3."""
-TERM_WEIGHTS = {"progress": "w_progress", "action": "w_action", "collision": "c_collision",
-                "heading": "c_heading", "terminal": "w_terminal"}
-"""Each term's weight field in :class:`CostConfig`."""
-
-
-@dataclass(frozen=True)
-class CostConfig:
-    """Weights and widths of the MPEPC / DS-MPEPC cost (docs/method.md sections 3-5)."""
-
-    sigma_static: float = 0.1
-    """Width of the collision-probability bell for the map, m (IROS 2012)."""
-    sigma_dynamic: float = 0.2
-    """Width of the collision-probability bell for moving objects, m (IROS 2012)."""
-    c_heading: float = 0.2
-    """Weight of the terminal heading error against the NF descent direction, 1/rad (IROS 2012)."""
-    c_v: float = 0.2
-    """Action weight on v^2, s/m^2 per second of horizon (IROS 2012)."""
-    c_w: float = 0.1
-    """Action weight on omega^2, s/rad^2 per second of horizon (IROS 2012)."""
-    c_collision: float = 0.1
-    """Cost of a collision per step, weighted by 1 - survivability (IROS 2012)."""
-    w_progress: float = 1.0
-    """Weight of the progress term (the paper: 1; docs/method.md section 5.3)."""
-    w_action: float = 1.0
-    """Weight of the action term on top of ``c_v`` and ``c_w`` (the paper: 1; docs/method.md
-    section 5.3)."""
-    w_terminal: float = 1.0
-    """Weight of the terminal term (the paper: 1); counted only with ``terminal_cost``."""
-    disabled: tuple = ()
-    """Names of terms switched off (their breakdown entry is 0): any of ``TERM_NAMES``."""
-    a: float = 0.7
-    """Largest reduction of the collision probability by the anticipatory factor (paper)."""
-    s_ttc: float = 0.5
-    """Width sigma_{1/TTC} of the inverse time-to-collision bells, 1/s (paper)."""
-    s_ttg: float = 1e-3
-    """Width sigma_{1/TTG} of the inverse time-to-goal bell, 1/s (paper)."""
-    sigma_static_from_map: bool = True
-    """Our extension, not the paper's (on by default, off in :meth:`PlannerConfig.paper`): with
-    a map, the static bell's width is the uncertainty of the distance the planner reads,
-    ``sqrt(resolution^2 / 12 + localisation_std^2)`` (the map's quantisation, a uniform error
-    over a cell, and the robot's localisation), instead of ``sigma_static``, a constant from
-    another robot's office map (docs/method.md section 3.2). BARN's 300 worlds: success 0.66 ->
-    0.98, no collision (docs/results.md)."""
-    localisation_std: float = 0.03
-    """Standard deviation of the robot's position on the map, m (with
-    ``sigma_static_from_map``): a 2-D lidar's localisation on an indoor map (our choice)."""
-    ttc_range: float = 8.0
-    """Range of the static time-to-collision ray march, m: beyond it 1/TTC = 0 (our choice)."""
-    ttg_along_nf: bool = False
-    """Our extension, not the paper's (default off): measure the terminal time to goal along the
-    navigation function, ``TTG = NF(p_N) / (v_N u . e)`` with ``e`` the unit NF descent
-    direction at the horizon's end, instead of the straight line ``|g - p_N| / (v_N u . g^)``.
-    Why: the straight line measures through walls. Behind a wall it calls a trajectory that
-    drives along the only route 'not approaching the goal' (``C_TTG = 1``, the terminal reward a
-    stop facing free space also earns, docs/method.md section 5.4) and one facing the wall
-    'approaching' it; the NF measures the route the robot will drive, as the progress term does
-    (:func:`~dsmpepc_nlp.core.costs.inverse_ttg_along_nf`). Without a map both are the same."""
-
-    def __post_init__(self):
-        positive = dict(low=0.0, low_open=True)
-        _validate_fields(self, {
-            "sigma_static": positive,
-            "sigma_dynamic": positive,
-            "c_heading": dict(low=0.0),
-            "c_v": dict(low=0.0),
-            "c_w": dict(low=0.0),
-            "c_collision": dict(low=0.0),
-            "a": dict(low=0.0, high=1.0),
-            "s_ttc": positive,
-            "s_ttg": positive,
-            "ttc_range": positive,
-            "localisation_std": dict(low=0.0),
-            "w_progress": dict(low=0.0),
-            "w_action": dict(low=0.0),
-            "w_terminal": dict(low=0.0),
-        })
-        for name in ("ttg_along_nf", "sigma_static_from_map"):
-            if not isinstance(getattr(self, name), bool):
-                _fail("CostConfig", name, getattr(self, name), "True or False")
-        try:
-            disabled = tuple(self.disabled) if not isinstance(self.disabled, str) else None
-        except TypeError:
-            disabled = None
-        if disabled is None or any(name not in TERM_NAMES for name in disabled):
-            _fail("CostConfig", "disabled", self.disabled,
-                  f"a sequence of term names from {', '.join(TERM_NAMES)}")
-        object.__setattr__(self, "disabled", disabled)
-
-    def weight(self, name: str) -> float:
-        """The weight of term ``name``: ``w_progress``, ``w_action``, ``c_collision``,
-        ``c_heading`` or ``w_terminal``."""
-        return getattr(self, TERM_WEIGHTS[name])
-
-
-@dataclass(frozen=True)
-class SmoothingConfig:
-    """Temperatures of the smooth stand-ins used by the NLP, each in the unit of what it smooths.
-
-    0 everywhere gives the exact cost; the NLP graph uses these values. See ``smooth.py``.
-    """
-
-    distance: float = 0.02
-    """Soft-min / soft-clip temperature for distances, m."""
-    speed: float = 0.02
-    """Relative soft-min temperature for the speed caps of the law, dimensionless
-    (the smooth speed is within a factor 2^-t of the exact one)."""
-    acceleration: float = 0.01
-    """Soft-clip temperature of the acceleration limit, m/s."""
-    rate: float = 0.02
-    """Soft-clip temperature of the turn-rate-change limit, rad/s."""
-    curvature: float = 0.01
-    """Smoothing of |kappa| in the omega limit, 1/m."""
-    inverse_time: float = 0.02
-    """Soft-clip temperature for inverse times 1/TTC and 1/TTG, 1/s."""
-    angle: float = 0.01
-    """Smoothing of the |sin| in the heading error, dimensionless."""
-
-    def __post_init__(self):
-        _validate_fields(self, {name.name: dict(low=0.0) for name in dataclasses.fields(self)})
-
-    @classmethod
-    def exact(cls) -> SmoothingConfig:
-        """All temperatures 0: the exact (non-smooth) forms."""
-        return cls(**{f.name: 0.0 for f in dataclasses.fields(cls)})
-
-    def scaled(self, factor: float) -> SmoothingConfig:
-        """Every temperature times ``factor`` (for convergence studies)."""
-        return dataclasses.replace(
-            self, **{f.name: getattr(self, f.name) * factor for f in dataclasses.fields(self)}
-        )
+            fail("BoundsConfig", "r_max", self.r_max, f"greater than r_min = {self.r_min}")
 
 
 @dataclass(frozen=True)
@@ -322,10 +164,10 @@ class DockingConfig:
     the horizon's end."""
 
     def __post_init__(self):
-        _validate_fields(self, {"radius": dict(low=0.0), "min_survival": dict(low=0.0, high=1.0),
+        validate_fields(self, {"radius": dict(low=0.0), "min_survival": dict(low=0.0, high=1.0),
                                 "arrival_radius": dict(low=0.0)})
         if not isinstance(self.radius_from_reach, bool):
-            _fail("DockingConfig", "radius_from_reach", self.radius_from_reach, "True or False")
+            fail("DockingConfig", "radius_from_reach", self.radius_from_reach, "True or False")
 
 
 @dataclass(frozen=True)
@@ -354,11 +196,11 @@ class StallConfig:
     """Level ``k`` multiplies the progress weight by ``gain ** k``."""
 
     def __post_init__(self):
-        _validate_fields(self, {"window": dict(low=0.0, low_open=True),
+        validate_fields(self, {"window": dict(low=0.0, low_open=True),
                                 "min_displacement": dict(low=0.0, low_open=True),
                                 "gain": dict(low=1.0)})
         if isinstance(self.levels, bool) or not isinstance(self.levels, int) or self.levels < 0:
-            _fail("StallConfig", "levels", self.levels, "an integer >= 0")
+            fail("StallConfig", "levels", self.levels, "an integer >= 0")
 
     def progress_gain(self, level: int) -> float:
         """The progress weight's factor at ``level`` (1 at level 0)."""
@@ -398,10 +240,10 @@ class PlannerConfig:
         }
         for name, kind in expected.items():
             if not isinstance(getattr(self, name), kind):
-                _fail("PlannerConfig", name, getattr(self, name), f"a {kind.__name__}")
+                fail("PlannerConfig", name, getattr(self, name), f"a {kind.__name__}")
         for name in ("anticipatory_pc", "terminal_cost"):
             if not isinstance(getattr(self, name), bool):
-                _fail("PlannerConfig", name, getattr(self, name), "True or False")
+                fail("PlannerConfig", name, getattr(self, name), "True or False")
 
     @classmethod
     def paper(cls, variant: str = "ds-mpepc", **changes) -> PlannerConfig:
@@ -515,7 +357,7 @@ class RobotState:
     """Measured turn rate, rad/s."""
 
     def __post_init__(self):
-        _validate_fields(self, {name: {} for name in ("x", "y", "phi", "v", "omega")})
+        validate_fields(self, {name: {} for name in ("x", "y", "phi", "v", "omega")})
 
     @property
     def pose(self) -> tuple:
@@ -527,165 +369,3 @@ class RobotState:
         import numpy as np
 
         return np.array([self.x, self.y, self.phi, self.v, self.omega], dtype=float)
-
-
-SOLVER_METHODS = ("ipopt", "newton", "sampling")
-
-
-SOLVER_NAMES = ("nlp", "fast", "sampling")
-"""The solvers by name, as on the command line (:meth:`SolverConfig.named`): the one list."""
-
-
-@dataclass(frozen=True)
-class SolverConfig:
-    """How a plan is searched for: the NLP plugin and its options, or the sampling planner.
-
-    ``SolverConfig()`` is IPOPT (default), ``SolverConfig.fast()`` the fast NLP configuration,
-    ``SolverConfig.sampling()`` the batched exact-cost sampler alone.
-    """
-
-    method: str = "ipopt"
-    """``ipopt`` (CasADi ``nlpsol`` on the compiled graph), ``newton`` (our trust-region Newton
-    on the 4-D box over the same compiled graph) or ``sampling``."""
-    max_iter: int = 40
-    """Iteration limit per start."""
-    tol: float = 1e-5
-    """Convergence tolerance passed to the plugin."""
-    options: tuple = ()
-    """Extra ``(key, value)`` pairs for ``casadi.nlpsol`` (plugin options as ``"ipopt.key"``)."""
-    n_spread: int = 4
-    """Starts spread over the z box in addition to the structured ones."""
-    n_samples: int = 4096
-    """Samples of z for the sampling planner (low-discrepancy)."""
-    seed: int = 0
-    """Seed of the low-discrepancy sequence and of the spread starts."""
-    pair_budget: int = 2_000_000
-    """Largest (trajectory, pose, footprint circle, obstacle circle) count the numpy exact cost
-    handles in one chunk: keeps its temporaries near 100 MB however crowded the world."""
-    parallel_rows: int = 64
-    """Smallest batch the compiled exact evaluator spreads over every core; smaller batches run
-    on the calling thread, where waking the thread pool would cost more than it saves."""
-    n_screen: int = 256
-    """Low-discrepancy z costed exactly with the named starts before any solve (the landscape
-    is multimodal: the NLP only runs from the best of them)."""
-    n_solved: int = 3
-    """Starts the NLP runs from (the warm start, then the best distinct others); fewer lost
-    BARN worlds (docs/nlp.md, "Pass 8")."""
-    solve_threads: int = 2
-    """Threads the solves of one plan run on at once (IPOPT: each with its own ``nlpsol``,
-    which releases Python's lock while it runs; ``newton``: its compiled loop, which does too);
-    1 runs them one after another. Every solve is the same whatever the count; only the
-    plan's wall time changes. Two is this project's 2-core reference machine."""
-    distinct: float = 0.05
-    """Two starts closer than this share of the box (max norm) count as one."""
-    fd_step: float = 1e-6
-    """Forward-difference step of the Hessian of the gradient, as a share of each variable's
-    range (``hessian="differences"``)."""
-    hessian: str = "quasi-newton"
-    """The Hessian the solvers use: ``quasi-newton`` (gradients only: IPOPT's limited-memory
-    update; for ``newton`` symmetric rank-one updates started from the differences),
-    ``differences`` of the compiled gradient (4 more gradients per Hessian) or ``exact``
-    (compiled forward over reverse; minutes to compile, no faster than the differences)."""
-    pose_object_buckets: tuple = (0, 4, 12)
-    """Object counts the graph is compiled for at every pose; a cycle uses the smallest that
-    holds the objects in its reach (the largest when none does). Each is compiled on first
-    use and cached."""
-    polish_rounds: int = 8
-    """Rounds of the exact-cost polish after the solves: the best candidate's 24 neighbours
-    (a step of ``polish_step`` along one variable, or along all four at once; share of each
-    range) are costed exactly and the best kept, then the step halves; 0 turns it off
-    (docs/nlp.md, "Pass 6")."""
-    polish_step: float = 0.04
-    """First step of the polish, as a share of each variable's range."""
-    polish_starts: int = 5
-    """Best distinct candidates (solved or screened, by exact cost) the polish starts from."""
-    polish_margin: float = 1.0
-    """Candidates whose exact cost trails the best one's by more than this are not polished
-    (``inf``: every one of the ``polish_starts``): no polish gain measured ever came near it
-    (docs/nlp.md, "Pass 6")."""
-    polish_ahead: bool = True
-    """Polish on the thread the solves leave idle: three solves on two threads end with one
-    thread waiting for the last solve, and there it walks from the seeds known so far (the
-    screened starts and the finished solves). The final polish continues those walks whose
-    seed is still a seed. Every walk is the same wherever it runs, so the plan is the same
-    either way (held by a test); only the wall time changes."""
-    screen_ahead: bool = True
-    """Solve from the warm start at once, while a second thread costs the other starts
-    exactly (the screen): the warm start is solved whatever the screen finds, and the solves
-    from the best other starts follow it (with ``solve_threads`` above 1). Every solve and
-    record is the same either way (held by a test); only the wall time changes."""
-    trust_radius: float = 0.25
-    """Initial trust radius of ``newton``, as a share of each variable's range."""
-    soft_turn: float = 0.6
-    """|delta| of the soft-turn starts, rad (about a third of the box)."""
-    hard_turn: float = 1.5
-    """|delta| of the hard-turn starts, rad (near the box's edge)."""
-    turn_distance: float = 2.0
-    """Target distance r of the turn starts, m."""
-
-    def __post_init__(self):
-        if self.method not in SOLVER_METHODS:
-            _fail("SolverConfig", "method", self.method, f"one of {', '.join(SOLVER_METHODS)}")
-        for name, low in (("max_iter", 1), ("n_spread", 0), ("n_samples", 1), ("seed", 0),
-                          ("pair_budget", 1), ("parallel_rows", 1),
-                          ("n_screen", 0), ("n_solved", 1), ("solve_threads", 1),
-                          ("polish_rounds", 0),
-                          ("polish_starts", 1)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                _fail("SolverConfig", name, value, f"an integer >= {low}")
-        positive = dict(low=0.0, low_open=True)
-        _validate_fields(self, {"tol": positive, "distinct": dict(low=0.0, high=1.0),
-                                "fd_step": positive, "polish_step": dict(low=0.0, high=1.0),
-                                "polish_margin": dict(low=0.0, allow_inf=True),
-                                "trust_radius": dict(low=0.0, low_open=True, high=1.0),
-                                "soft_turn": dict(low=0.0), "hard_turn": dict(low=0.0),
-                                "turn_distance": positive})
-        for name in ("polish_ahead", "screen_ahead"):
-            if not isinstance(getattr(self, name), bool):
-                _fail("SolverConfig", name, getattr(self, name), "True or False")
-        hessians = ("differences", "exact", "quasi-newton")
-        if self.hessian not in hessians:
-            _fail("SolverConfig", "hessian", self.hessian, " or ".join(map(repr, hessians)))
-        try:
-            buckets = tuple(sorted({int(b) for b in self.pose_object_buckets}))
-        except (TypeError, ValueError):
-            buckets = ()
-        if not buckets or buckets[0] < 0 or any(
-                isinstance(b, bool) or b != int(b) for b in self.pose_object_buckets):
-            _fail("SolverConfig", "pose_object_buckets", self.pose_object_buckets,
-                  "a non-empty sequence of integers >= 0")
-        object.__setattr__(self, "pose_object_buckets", buckets)
-        try:
-            options = tuple((str(k), v) for k, v in
-                            (self.options.items() if isinstance(self.options, dict)
-                             else self.options))
-        except (TypeError, ValueError):
-            _fail("SolverConfig", "options", self.options, "a dict or sequence of (key, value)")
-        object.__setattr__(self, "options", options)
-
-    @classmethod
-    def fast(cls, **changes) -> SolverConfig:
-        """Trust-region Newton on the 4-D box: exact box-QP step, quasi-Newton (SR1) Hessian.
-
-        On 4 variables it needs no barrier and no per-call ``nlpsol`` overhead; ``tol`` is the
-        predicted decrease counted as converged (1e-3, against the 0.01 cost tolerance). The
-        exact polish starts from the 3 best candidates instead of 5: two fifths of the polish
-        saved for about the same plans (docs/nlp.md, "Pass 6").
-        """
-        changes.setdefault("tol", 1e-3)
-        changes.setdefault("polish_starts", 3)
-        return cls(method="newton", **changes)
-
-    @classmethod
-    def sampling(cls, **changes) -> SolverConfig:
-        """The batched exact-cost sampling planner alone."""
-        return cls(method="sampling", **changes)
-
-    @classmethod
-    def named(cls, name: str) -> SolverConfig:
-        """One of :data:`SOLVER_NAMES`: ``nlp`` (IPOPT), ``fast`` or ``sampling``."""
-        makers = dict(zip(SOLVER_NAMES, (cls, cls.fast, cls.sampling)))
-        if name not in makers:
-            raise InputError(f"solver = {name!r}: must be one of {', '.join(makers)}")
-        return makers[name]()

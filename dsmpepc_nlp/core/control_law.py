@@ -7,7 +7,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from .config import PlannerConfig, RobotState, SmoothingConfig
+from .config import PlannerConfig, RobotState
+from .cost_config import SmoothingConfig
 from .errors import InputError
 from .smooth import CASADI, NUMPY, sabs, smax, smin, smin_positive
 

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.config import _fail, _validate_fields
+from ..core.validation import fail, validate_fields
 
 OUTCOMES = ("success", "collision", "deadlock", "timeout")
 """Per-robot outcomes (docs/method.md section 7.3)."""
@@ -46,8 +46,8 @@ class OutcomeConfig:
 
     def __post_init__(self):
         if not isinstance(self.deadlock, bool):
-            _fail("OutcomeConfig", "deadlock", self.deadlock, "True or False")
-        _validate_fields(self, {"deadlock_window": dict(low=0.0, low_open=True),
+            fail("OutcomeConfig", "deadlock", self.deadlock, "True or False")
+        validate_fields(self, {"deadlock_window": dict(low=0.0, low_open=True),
                                 "deadlock_progress": dict(low=0.0)})
 
 

@@ -12,7 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.config import PlannerConfig, RobotState, SolverConfig
+from ..core.config import PlannerConfig, RobotState
+from ..core.solver_config import SolverConfig
 from ..core.world import World
 from ..solve.cycle import Cycle
 from ..solve.sampling import SamplingPlanner, structured_starts

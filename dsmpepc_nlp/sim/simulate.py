@@ -21,10 +21,12 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..core.config import TERM_NAMES, PlannerConfig, RobotState, SolverConfig
+from ..core.config import PlannerConfig, RobotState
 from ..core.control_law import arc_step
+from ..core.cost_config import TERM_NAMES
 from ..core.errors import InputError
 from ..core.geometry import footprint_points
+from ..core.solver_config import SolverConfig
 from ..core.world import DynamicObstacle, World
 from ..solve.planner import STATUSES, Planner
 from ..solve.policy import PlanningPolicy

@@ -42,7 +42,7 @@ NAMES = ("F", "G", "H")
 def source_hash() -> str:
     """Hash of every module the generated code is made from (:func:`.cache.source_closure` of
     the graph and this file): a code change never loads stale C."""
-    return sources_hash(f"{__package__}.nlp_global", __name__)
+    return sources_hash(f"{__package__}.graph.build", __name__)
 
 
 def problem_functions(cost: ca.Function, fd_step=None, hessian="differences") -> dict:

@@ -1,6 +1,6 @@
 """The compiled exact evaluator: when it runs, where its compiled code is cached, what it reads.
 
-The kernel (:mod:`._exact_kernel`, numba, both cores) rolls out and costs a batch of z from the
+The kernel (:mod:`.kernel`, numba, both cores) rolls out and costs a batch of z from the
 flat arrays of a :class:`~dsmpepc_nlp.solve.cycle.Cycle` and returns the same
 :class:`~dsmpepc_nlp.core.costs.CostBreakdown` as the numpy reference
 (:func:`~dsmpepc_nlp.core.costs.evaluate`). The reference stays the definition: the kernel is a
@@ -34,7 +34,7 @@ from ..core.world import DynamicObstacle, OccupancyGrid, World
 from .cache import compile_enabled, numba_folder, sources_hash, warn_once
 from .cycle import Cycle
 
-_KERNEL_MODULE = f"{__package__}._exact_kernel"
+_KERNEL_MODULE = f"{__package__}.kernel.costs"
 _LOCK = threading.Lock()
 _STATE = {"kernel": None, "failed": "", "numpy_only": False, "loading": None,
           "deferred": False}
@@ -151,7 +151,7 @@ def numpy_only():
 
 
 def _import_kernel():
-    return import_numba_module("._exact_kernel", kernel_cache_dir())
+    return import_numba_module(".kernel.costs", kernel_cache_dir())
 
 
 def import_numba_module(name: str, folder: Path):
@@ -177,10 +177,10 @@ def evaluate_compiled(z: np.ndarray, cycle, module,
     """Roll out and cost ``z`` (n, 4) with the compiled kernel ``module`` from ``cycle``.
 
     Batches of at least ``parallel_rows`` rows use every core, smaller ones the calling thread
-    (:attr:`~dsmpepc_nlp.core.config.SolverConfig.parallel_rows`).
+    (:attr:`~dsmpepc_nlp.core.solver_config.SolverConfig.parallel_rows`).
 
     Rollouts the kernel marks fragile (passing a discontinuity of the law, see
-    ``_exact_kernel.FRAGILE_ANGLE``) are redone with the numpy reference and costed again, so
+    ``kernel.layout.FRAGILE_ANGLE``) are redone with the numpy reference and costed again, so
     both paths follow the same branch there.
     """
     z, poses, v, omega, target, survival, out = _kernel_pass(z, cycle, module, parallel_rows)

@@ -16,8 +16,8 @@ from functools import lru_cache
 import casadi as ca
 import numpy as np
 
-from ..core.config import SolverConfig
 from ..core.errors import InputError
+from ..core.solver_config import SolverConfig
 from .problem import Problem, SolveResult, snap
 from .threads import run_starts
 

@@ -1,11 +1,12 @@
 """The multi-start NLP over z: screen many starts exactly, solve from the best few, choose exactly.
 
-:class:`NlpSolver` is the multistart of the split (``nlp_global`` the problem's graph,
-``solvers`` the problem compiled and its solvers built once per configuration, this module the
-starts, the screening and the choice). Per cycle it costs the named starts and ``n_screen``
-low-discrepancy z with the compiled exact evaluator, binds the cycle's parameters to the
-compiled global graph once, runs the solver (IPOPT or the trust-region Newton method) from the
-warm start and the best distinct others (``n_solved``), and hands back one
+:class:`NlpSolver` is the multistart of the split (``graph`` the problem's graph, ``solvers``
+the problem compiled and its solvers built once per configuration, :mod:`.polish` the
+exact-cost polish, this module the starts, the screening and the choice). Per cycle it costs
+the named starts and ``n_screen`` low-discrepancy z with the compiled exact evaluator, binds the
+cycle's parameters to the compiled global graph once, runs the solver (IPOPT or the
+trust-region Newton method) from the warm start and the best distinct others (``n_solved``),
+polishes the best candidates on the exact cost, and hands back one
 :class:`~dsmpepc_nlp.solve.records.StartRecord` per start with its exact cost: the verdict is
 the exact cost. Every knob is a ``SolverConfig`` field; why these settings: ``docs/nlp.md``.
 """
@@ -13,40 +14,22 @@ the exact cost. Every knob is a ``SolverConfig`` field; why these settings: ``do
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import math
 import time
 
 import numpy as np
 
-from ..core.config import PlannerConfig, SolverConfig
-from . import exact, nlp_global, solvers, threads
-from .nlp_global import PARAMETER_NAMES, GraphSizes, pack_parameters, parameter_shapes
+from ..core.config import PlannerConfig
+from ..core.solver_config import SolverConfig
+from . import exact, graph, solvers
+from .graph import PARAMETER_NAMES, GraphSizes, pack_parameters, parameter_shapes
+from .polish import Polish
 from .problem import readiness
 from .records import StartRecord
 from .sampling import box_samples, exact_totals
 
-_NEIGHBOURS = np.array([d for d in itertools.product((-1.0, 0.0, 1.0), repeat=4)
-                        if sum(map(abs, d)) in (1, 4)])
-"""The polish's 24 neighbours of a point on the 4-D grid: the 8 steps along one variable and
-the 16 corners (a step along all four). The other 56 grid neighbours (two or three variables
-at once) bought nothing the cross-check could see for 2.4 times the exact trajectories
-(docs/nlp.md, "Pass 6")."""
-
 __all__ = ["NlpSolver", "pack_parameters", "GraphSizes", "PARAMETER_NAMES",
            "parameter_shapes"]
-
-
-@dataclasses.dataclass
-class _Walk:
-    """One pattern search of the polish: from ``seed``, at ``z`` of exact ``cost`` after
-    ``rounds`` rounds, next ``step`` (per variable)."""
-
-    seed: StartRecord
-    z: np.ndarray
-    cost: float
-    step: np.ndarray
-    rounds: int = 0
 
 
 class NlpSolver:
@@ -65,7 +48,7 @@ class NlpSolver:
         ``ipopt`` or ``newton`` (``SolverConfig.fast()``: the trust-region method of
         :mod:`~dsmpepc_nlp.solve.newton`, whose ``tol`` is the predicted decrease counted as
         converged), options, iteration limit, starts and seed.
-    sizes : nlp_global.GraphSizes, optional
+    sizes : graph.GraphSizes, optional
         Terminal objects, table window and ray samples (``pose_objects`` is chosen per cycle).
 
     Attributes
@@ -75,6 +58,11 @@ class NlpSolver:
     last_stats : list of dict
         Per solve of the last cycle: name, iterations (``iter_count``), cost and derivative
         evaluations (``nfev``, ``ngev``), wall time, packing time, object bucket.
+    last_screen : dict
+        The last cycle's screen: ``rows`` costed, and ``one_thread`` (True when it ran on one
+        core beside the warm start's solve).
+    polish : Polish
+        The exact-cost polish (:mod:`.polish`); ``polish.last`` says where its rounds ran.
     """
 
     def __init__(self, config: PlannerConfig, solver: SolverConfig | None = None,
@@ -87,7 +75,7 @@ class NlpSolver:
         self.lower = np.array(config.z_lower, dtype=float)
         self.upper = np.array(config.z_upper, dtype=float)
         self.span = self.upper - self.lower
-        self._first_step = self.solver_config.polish_step * self.span
+        self.polish = Polish(self.solver_config, self.lower, self.upper, self._exact)
         self._solver = solvers.make_solver(self.solver_config)
         self.spread = box_samples(config, self.solver_config.n_spread, self.solver_config.seed)
         self.screen = box_samples(config, self.solver_config.n_screen,
@@ -100,12 +88,13 @@ class NlpSolver:
         self._seen = set()
         self._ready = set()
         self.last_stats = []
+        self.last_screen = {}
         self.polish_skipped = False
         self.build_s = time.perf_counter() - started
 
     def sizes_for(self, cycle) -> GraphSizes:
         """The graph sizes of ``cycle``: the least bucket holding its objects, else the largest."""
-        in_reach = nlp_global.objects_in_reach(cycle)
+        in_reach = graph.objects_in_reach(cycle)
         buckets = self.solver_config.pose_object_buckets
         bucket = next((b for b in buckets if b >= in_reach), buckets[-1])
         return dataclasses.replace(self.sizes, pose_objects=bucket)
@@ -153,7 +142,7 @@ class NlpSolver:
                 break
             if i in order or not np.isfinite(costs[i]):
                 continue
-            if all(self._distinct(named[i][1], named[j][1]) for j in order):
+            if all(self.polish.distinct(named[i][1], named[j][1]) for j in order):
                 order.append(int(i))
         return order
 
@@ -185,6 +174,7 @@ class NlpSolver:
         z_named = np.array([z for _, z in named]).reshape(-1, 4)
         named += self._box_starts
         self.last_stats = []
+        self.polish.reset()
         problem = self.problem(cycle)
         packed = time.perf_counter()
         problem.bind(problem.pack(cycle))
@@ -193,7 +183,9 @@ class NlpSolver:
 
         def screen(one_thread=False):
             """Cost every start exactly; the starts to solve from."""
-            screened.append(self._exact(np.vstack([z_named, self._box_z]), cycle, one_thread))
+            z = np.vstack([z_named, self._box_z])
+            self.last_screen = {"rows": len(z), "one_thread": one_thread}
+            screened.append(self._exact(z, cycle, one_thread))
             chosen.extend(self._choose(named, screened[0]))
 
         def listed():
@@ -227,7 +219,7 @@ class NlpSolver:
                 for index, result in done.items():
                     ahead[chosen[index]] = self._solved_record(named[chosen[index]], result)
                 self._verdicts(ahead, cycle, one_thread=True)
-                self._polish_walks(ahead, cycle, walks, busy)
+                self.polish.ahead(ahead, cycle, walks, busy)
         results = self._run(problem, [named[i] for i in first], idle, more)
         listed()
         for i, result in zip(chosen, results):
@@ -242,7 +234,7 @@ class NlpSolver:
         if best_lam is not None:
             self._lam_x = best_lam
         self._verdicts(records, cycle)
-        polished = None if self.polish_skipped else self._polish(records, cycle, walks)
+        polished = None if self.polish_skipped else self.polish.run(records, cycle, walks)
         return records + ([polished] if polished is not None else [])
 
     @staticmethod
@@ -252,10 +244,6 @@ class NlpSolver:
         return StartRecord(name, z0, result.x, result.status, result.success, result.nit,
                            result.time_s, result.fun)
 
-    def _distinct(self, a, b) -> bool:
-        """True when two z differ by more than ``SolverConfig.distinct`` of the box (max
-        norm): the starts solved from and the polish's seeds are kept that far apart."""
-        return bool(np.max(np.abs(a - b) / self.span) > self.solver_config.distinct)
 
     def _exact(self, z, cycle, one_thread=False) -> np.ndarray:
         """Exact total costs of the rows of ``z`` (``SolverConfig.parallel_rows`` decides when
@@ -275,117 +263,6 @@ class NlpSolver:
             for i, cost in zip(solved, exact):
                 records[i] = dataclasses.replace(records[i], exact_cost=float(cost))
 
-    def _seeds(self, records) -> tuple:
-        """``(seeds, best)``: the best distinct candidates the polish starts from, cheapest
-        first (at most ``polish_starts``, none trailing the best by more than
-        ``polish_margin``), and the best exact cost of all."""
-        finite = sorted((r for r in records if math.isfinite(r.exact_cost)),
-                        key=lambda r: r.exact_cost)
-        if not finite:
-            return [], math.inf
-        seeds = []
-        for record in finite:       # cheapest first
-            if (len(seeds) == self.solver_config.polish_starts
-                    or record.exact_cost > finite[0].exact_cost + self.solver_config.polish_margin):
-                break
-            if all(self._distinct(record.z, s.z) for s in seeds):
-                seeds.append(record)
-        return seeds, finite[0].exact_cost
-
-    def _walk(self, seed, walks) -> _Walk:
-        """The pattern search from ``seed``: the one already (partly) run ahead, else new."""
-        key = (seed.name, seed.z.tobytes(), seed.exact_cost)
-        if key not in walks:
-            walks[key] = _Walk(seed, seed.z.copy(), seed.exact_cost, self._first_step)
-        return walks[key]
-
-    def _rounds(self, walks, cycle, one_thread=False) -> None:
-        """One round of each walk, all in one exact batch: the 24 neighbours at its step,
-        the best kept if better, the step halved."""
-        z = np.array([w.z for w in walks])
-        step = np.array([w.step for w in walks])
-        trial = np.clip(z[:, None, :] + _NEIGHBOURS * step[:, None, :], self.lower, self.upper)
-        costs = self._exact(trial.reshape(-1, 4), cycle, one_thread)
-        costs = np.where(np.isfinite(costs), costs, np.inf).reshape(len(z), -1)
-        for walk, row, trials in zip(walks, costs, trial):
-            best = int(np.argmin(row))
-            if row[best] < walk.cost:
-                walk.z, walk.cost = trials[best], float(row[best])
-            walk.step = walk.step / 2
-            walk.rounds += 1
-
-    def _polish_walks(self, records, cycle, walks, busy) -> None:
-        """Polish ahead (on a thread the solves left idle): walk from each seed of
-        ``records`` (the screened starts and the solves finished so far) one after another,
-        a round at a time, while ``busy()``. Walks are kept in ``walks``; the final polish
-        continues those whose seed is still a seed and drops the others."""
-        seeds, _ = self._seeds(records)
-        for seed in seeds:
-            walk = self._walk(seed, walks)
-            while walk.rounds < self.solver_config.polish_rounds:
-                if not busy():
-                    return
-                self._rounds([walk], cycle, one_thread=True)
-
-    def _polish(self, records, cycle, walks=None) -> StartRecord | None:
-        """Pattern search on the exact cost around the best distinct candidates (see
-        ``SolverConfig.polish_rounds``; all of them in one exact batch per round): it reaches
-        basins next to the candidates that the solves stopped short of, and the exact optimum
-        where the smooth one is near, not at, it (docs/nlp.md, "Pass 6"). Candidates trailing
-        the best by more than ``SolverConfig.polish_margin`` are not polished. ``walks``:
-        the walks run ahead (``polish_ahead``), continued where their seed is still a seed;
-        each walk is the same whether run ahead or here. None when it finds nothing better
-        than every candidate."""
-        rounds = self.solver_config.polish_rounds
-        seeds, best = self._seeds(records)
-        if rounds == 0 or not seeds:
-            return None
-        started = time.perf_counter()
-        walks = [self._walk(seed, {} if walks is None else walks) for seed in seeds]
-        self._finish_walks(walks, cycle)
-        winner = min(walks, key=lambda w: w.cost)       # the first of equals, as argmin
-        if not winner.cost < best:
-            return None
-        origin = winner.seed
-        return StartRecord("polish", origin.z, winner.z, f"polished '{origin.name}'",
-                           any(r.success for r in records), rounds,
-                           time.perf_counter() - started, math.nan, winner.cost)
-
-    def _finish_walks(self, walks, cycle) -> None:
-        """Every walk's remaining rounds. With several walks left and ``solve_threads``
-        above 1, the walks are shared out over the threads (most rounds left first, each to
-        the least loaded thread), each thread running its own walks' rounds on its core: a
-        round of 24 polish rows is too small to share one batch over the cores (docs/nlp.md,
-        "Pass 7"), two walks side by side are not. A walk's rounds depend only on its seed
-        and each row is costed as it would be alone, so every walk ends as it would in one
-        batch."""
-        rounds = self.solver_config.polish_rounds
-        left = [w for w in walks if w.rounds < rounds]
-        n_threads = min(self.solver_config.solve_threads, len(left))
-        if n_threads <= 1:
-            self._walk_rounds(left, cycle)
-            return
-        groups, loads = [[] for _ in range(n_threads)], [0] * n_threads
-        for walk in sorted(left, key=lambda w: w.rounds):
-            lightest = loads.index(min(loads))
-            groups[lightest].append(walk)
-            loads[lightest] += rounds - walk.rounds
-        others = [threads.pool(n_threads - 1, "walks").submit(self._walk_rounds, group, cycle,
-                                                              True) for group in groups[1:]]
-        try:
-            self._walk_rounds(groups[0], cycle, True)
-        finally:
-            for future in others:
-                future.result()
-
-    def _walk_rounds(self, walks, cycle, one_thread=False) -> None:
-        """Rounds of ``walks`` (in one exact batch each) until every one has had its
-        ``polish_rounds``."""
-        while True:
-            active = [w for w in walks if w.rounds < self.solver_config.polish_rounds]
-            if not active:
-                return
-            self._rounds(active, cycle, one_thread)
 
     def _run(self, problem, named, idle=None, more=None) -> list:
         """The solves from every ``(name, z0)`` of ``named`` and then of ``more(busy)`` (the

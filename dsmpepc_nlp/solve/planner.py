@@ -11,10 +11,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.config import TERM_NAMES, PlannerConfig, RobotState, SolverConfig
+from ..core.config import PlannerConfig, RobotState
 from ..core.control_law import Trajectory, rollout
+from ..core.cost_config import TERM_NAMES
 from ..core.costs import CostBreakdown
 from ..core.errors import InputError
+from ..core.solver_config import SolverConfig
 from ..core.world import World
 from . import docking, exact
 from .cycle import Cycle

@@ -1,6 +1,6 @@
 """The NLP's problem: the global graph of one configuration, compiled, and a solve's result.
 
-:class:`Problem` is the global cost graph (:mod:`~dsmpepc_nlp.solve.nlp_global`) of one
+:class:`Problem` is the global cost graph (:mod:`~dsmpepc_nlp.solve.graph`) of one
 configuration and one object size, compiled to C (:mod:`~dsmpepc_nlp.solve.compiled`) and cached
 on disk; a cycle binds its parameters once (:meth:`Problem.bind`) and every evaluation after
 that is one C call. The solvers (:mod:`~dsmpepc_nlp.solve.solvers`) run on it and return a
@@ -16,8 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.config import PlannerConfig, SolverConfig
-from . import background, compiled, nlp_global, settings
+from ..core.config import PlannerConfig
+from ..core.solver_config import SolverConfig
+from . import background, compiled, graph, settings
 from .cache import compile_enabled
 
 
@@ -65,7 +66,7 @@ class Problem:
     Parameters
     ----------
     config : PlannerConfig
-    sizes : nlp_global.GraphSizes
+    sizes : graph.GraphSizes
     solver : SolverConfig
         ``fd_step`` and ``hessian`` (how the compiled Hessian is formed).
     """
@@ -79,7 +80,7 @@ class Problem:
         # numbers (the ``settings`` block), so the library is keyed by structure alone.
         self.steps = solver.fd_step * (self.upper - self.lower)
         hessian = "exact" if solver.hessian == "exact" else "differences"
-        self.functions = compiled.build(lambda: nlp_global.flat_cost(config, sizes), None,
+        self.functions = compiled.build(lambda: graph.flat_cost(config, sizes), None,
                                         structure_key(config, sizes), hessian)
         self.n_params = self.functions.n_params
         self.p = np.zeros(self.n_params)
@@ -87,7 +88,7 @@ class Problem:
 
     def pack(self, cycle) -> np.ndarray:
         """The flat parameter vector of ``cycle`` for this graph (the difference steps last)."""
-        flat = nlp_global.flatten_parameters(nlp_global.pack_parameters(cycle, self.sizes))
+        flat = graph.flatten_parameters(graph.pack_parameters(cycle, self.sizes))
         return np.concatenate([flat, self.steps])
 
     def bind(self, p: np.ndarray) -> None:
@@ -118,8 +119,8 @@ def structure_key(config: PlannerConfig, sizes) -> tuple:
     """What a compiled library of ``config`` and ``sizes`` is keyed by: the graph's structure
     (:func:`.settings.structure`), the sizes with the ray's samples resolved, and the parameter
     layout; never a number that is a parameter."""
-    sizes = nlp_global.resolved_sizes(config, sizes)
-    shapes = nlp_global.parameter_shapes(config, sizes)
+    sizes = graph.resolved_sizes(config, sizes)
+    shapes = graph.parameter_shapes(config, sizes)
     return (settings.structure(config), sizes, tuple(shapes.items()), "global")
 
 

@@ -10,9 +10,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.config import PlannerConfig, RobotState, SolverConfig
+from ..core.config import PlannerConfig, RobotState
 from ..core.control_law import Trajectory, rollout, wrap, z_from_target
 from ..core.costs import CostBreakdown, evaluate
+from ..core.solver_config import SolverConfig
 from . import exact
 from .cache import cache_dir
 from .cycle import Cycle

@@ -24,7 +24,8 @@ import math
 
 import numpy as np
 
-from ..core.config import PlannerConfig, SmoothingConfig
+from ..core.config import PlannerConfig
+from ..core.cost_config import SmoothingConfig
 
 SECTIONS = ("robot", "control_law", "horizon", "cost", "smoothing")
 """Sections of :class:`PlannerConfig` whose float fields the graph may read."""

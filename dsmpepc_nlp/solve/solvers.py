@@ -20,10 +20,11 @@ import time
 
 import numpy as np
 
-from ..core.config import VARIANTS, PlannerConfig, RobotState, SolverConfig
+from ..core.config import VARIANTS, PlannerConfig, RobotState
 from ..core.errors import InputError
+from ..core.solver_config import SolverConfig
 from ..core.world import World
-from . import nlp_global
+from . import graph
 from .cycle import Cycle
 from .ipopt import IpoptSolver
 from .newton import minimize, minimize_compiled
@@ -142,7 +143,7 @@ def build(variants=None, solver: SolverConfig | None = None, workers: int | None
                                                          else variants)]
     configs += [dataclasses.replace(config, robot=robot) for robot in robots
                 for config in configs[:1]]      # one variant: they share a structure
-    wanted = [(config, nlp_global.GraphSizes(pose_objects=bucket)) for config in configs
+    wanted = [(config, graph.GraphSizes(pose_objects=bucket)) for config in configs
               for bucket in solver.pose_object_buckets]
     libraries, missing = compile_missing(wanted, solver, workers)
     built = [problem(config, sizes, solver) for config, sizes in wanted]

@@ -45,7 +45,7 @@ def draw_map(ax, grid) -> None:
 
 STAGE_MARGIN = 10.0
 """People farther than this from every robot state and goal are off the stage, m: a replayed
-recording parks pedestrians far away before and after their tracks (bench.crowds.OFFSTAGE)."""
+recording parks pedestrians far away before and after their tracks (bench.crowd_rows.OFFSTAGE)."""
 
 
 def on_stage(episode, points) -> np.ndarray:

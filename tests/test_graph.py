@@ -9,12 +9,15 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.core.config import TERM_NAMES, HorizonConfig, PlannerConfig, SmoothingConfig
+from dsmpepc_nlp.core.config import HorizonConfig, PlannerConfig
 from dsmpepc_nlp.core.control_law import rollout
+from dsmpepc_nlp.core.cost_config import TERM_NAMES, SmoothingConfig
 from dsmpepc_nlp.core.costs import evaluate
+from dsmpepc_nlp.core.grid import FAR
 from dsmpepc_nlp.solve import cache, compiled
-from dsmpepc_nlp.solve import nlp_global as g
+from dsmpepc_nlp.solve import graph as g
 from dsmpepc_nlp.solve.cycle import Cycle
+from dsmpepc_nlp.solve.graph.geometry import table_lookup
 
 CONFIG = PlannerConfig()
 
@@ -157,7 +160,7 @@ def test_compiled_newton_loop_takes_the_python_loops_steps(tmp_path, monkeypatch
     """The trust-region loop in compiled code (calling the generated functions itself) is
     the Python loop with the SR1 Hessian: same iterations, evaluations, status and point
     (to rounding: numba's and numpy's 4 x 4 products may differ in the last bit)."""
-    from dsmpepc_nlp.core.config import SolverConfig
+    from dsmpepc_nlp.core.solver_config import SolverConfig
     from dsmpepc_nlp.solve import newton, solvers
 
     _compile_into(tmp_path, monkeypatch)
@@ -208,7 +211,7 @@ def test_ipopt_solves_on_threads_are_the_solves_one_after_another(tmp_path, monk
                                                                   compile_):
     """``solve_threads``: each thread slot has its own nlpsol; every start, cold or warm,
     gives the same point, cost, iterations and status as when solved alone, in order."""
-    from dsmpepc_nlp.core.config import SolverConfig
+    from dsmpepc_nlp.core.solver_config import SolverConfig
     from dsmpepc_nlp.solve import solvers
 
     monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
@@ -256,7 +259,7 @@ def test_no_compile_falls_back_to_the_virtual_machine_with_one_warning(tmp_path,
 def test_newton_on_the_global_graph_returns_finite_records(tmp_path, monkeypatch):
     """``SolverConfig.fast()``: one solve per start, records in the box, never above the
     start on the smooth cost."""
-    from dsmpepc_nlp.core.config import SolverConfig
+    from dsmpepc_nlp.core.solver_config import SolverConfig
     from dsmpepc_nlp.solve.nlp import NlpSolver
     from dsmpepc_nlp.solve.sampling import structured_starts
 
@@ -281,7 +284,7 @@ def test_newton_on_the_global_graph_returns_finite_records(tmp_path, monkeypatch
 
 
 def test_object_bucket_is_the_smallest_holding_the_objects_in_reach():
-    from dsmpepc_nlp.core.config import SolverConfig
+    from dsmpepc_nlp.core.solver_config import SolverConfig
     from dsmpepc_nlp.solve.nlp import NlpSolver
 
     state, world, goal = _demo()
@@ -339,7 +342,7 @@ def _compile_table_reader(folder, fast: bool):
     bilinear fast paths (compiled.specialise)."""
     sizes = g.GraphSizes(max_objects=1, table_cells=16, ray_samples=4)
     uv, table = ca.MX.sym("uv", 2), ca.MX.sym("table", sizes.table_cells ** 2)
-    value = g.table_lookup(sizes)(uv, table)
+    value = table_lookup(sizes)(uv, table)
     reader = ca.Function("reader", [uv, table], [value, ca.gradient(value, uv)])
     generator = ca.CodeGenerator("reader.c", {"with_header": False})
     generator.add(reader)
@@ -377,7 +380,7 @@ def test_bilinear_fast_paths_give_the_generic_codes_bits(tmp_path):
 def _pack_obstacles_one_by_one(cycle, sizes, k_max, reach_only):
     """pack_obstacles as a loop over the objects (its earlier form): the reference."""
     c_obj = sizes.circles_per_object
-    circles = np.tile([g.FAR, g.FAR, 0.1], (k_max * c_obj, 1))
+    circles = np.tile([FAR, FAR, 0.1], (k_max * c_obj, 1))
     velocities, indices = np.zeros((k_max, 2)), np.full(k_max * c_obj, -1)
     owner = cycle.owner
     gap = np.min(np.linalg.norm(cycle.predicted - [cycle.state.x, cycle.state.y], axis=-1),

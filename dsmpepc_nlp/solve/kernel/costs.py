@@ -1,0 +1,223 @@
+"""The exact cost of many trajectories, compiled: survivability, the assembly of the terms
+(``costs.assemble``) and the batch entry points :func:`exact_costs` and
+:func:`exact_costs_serial` (both cores, or the calling thread)."""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numba import prange
+
+from .geometry import (
+    culled_distance,
+    descent,
+    heading_error,
+    inverse_ttg,
+    inverse_ttg_along_nf,
+    nf_value,
+    object_pose,
+    place,
+    static_pose,
+    terminal_inverse_ttc,
+)
+from .law import rollout
+from .layout import (
+    ANTICIPATORY,
+    C_V,
+    C_W,
+    CULL_FLOOR,
+    CULL_SIGMAS,
+    DT,
+    FRAGILE_COLUMN,
+    HAS_GRID,
+    INV_TTC_TERMINAL_COLUMN,
+    INV_TTG_COLUMN,
+    MIN_DISTANCE_COLUMN,
+    N_TERMS,
+    ON_PROGRESS,
+    OUT,
+    S_TTC,
+    S_TTG,
+    SIGMA_DYNAMIC,
+    SIGMA_STATIC,
+    TERMINAL,
+    TOTAL_COLUMN,
+    TTG_NF,
+    W_PROGRESS,
+    A,
+    jit,
+)
+
+
+@jit
+def pairwise(a, n):
+    """numpy's pairwise summation of ``a[:n]`` (the order ``np.sum`` adds in)."""
+    if n < 8:
+        res = 0.0
+        for i in range(n):
+            res += a[i]
+        return res
+    if n <= 128:
+        r = a[:8].copy()
+        i = 8
+        while i < n - (n % 8):
+            for j in range(8):
+                r[j] += a[i + j]
+            i += 8
+        res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+        while i < n:
+            res += a[i]
+            i += 1
+        return res
+    n2 = n // 2
+    n2 -= n2 % 8
+    return pairwise(a, n2) + pairwise(a[n2:], n - n2)
+
+
+@jit
+def collision_probability(d, inv, sigma, p):
+    """``costs.collision_probability`` of one pose and object."""
+    d = max(d, 0.0)
+    pc = math.exp(-(d * d) / (sigma * sigma))
+    if p[ANTICIPATORY] != 0.0:
+        s = p[S_TTC]
+        pc = pc * (1.0 - p[A] * math.exp(-(inv * inv) / (s * s)))
+    return pc
+
+
+@jit
+def survival_along(p, fp, sdf, pred, radii, velocities, starts, poses, vs, survival, pts):
+    """Survivability at every pose; returns the smallest distance to any kept object.
+
+    An object at ``d >= cull_sigmas * sigma`` has ``1 - P_c == 1.0`` exactly (see
+    ``cycle.CULL_SIGMAS``): its factor is skipped, which changes no bit.
+    """
+    n_steps = vs.shape[0]
+    far_static, far_dynamic = p[CULL_SIGMAS] * p[SIGMA_STATIC], p[CULL_SIGMAS] * p[SIGMA_DYNAMIC]
+    ttc_below = far_dynamic if p[ANTICIPATORY] != 0.0 else -math.inf
+    nearest = math.inf
+    alive = 1.0
+    for k in range(n_steps + 1):
+        cos_h, sin_h = place(fp, poses[k, 0], poses[k, 1], poses[k, 2], pts)
+        speed = vs[min(k, n_steps - 1)]
+        q = 1.0
+        if p[HAS_GRID] != 0.0:
+            d, inv = static_pose(sdf, p, fp, pts, cos_h, sin_h, speed)
+            nearest = min(nearest, d)
+            if d < far_static:
+                q *= 1.0 - collision_probability(d, inv, p[SIGMA_STATIC], p)
+        centres = pred[k]
+        for o in range(starts.shape[0] - 1):
+            d, inv = object_pose(fp, pts, cos_h, sin_h, speed, centres, radii, velocities,
+                                  starts[o], starts[o + 1], ttc_below,
+                                  max(far_dynamic, nearest))
+            nearest = min(nearest, d)
+            if d < far_dynamic:
+                q *= 1.0 - collision_probability(d, inv, p[SIGMA_DYNAMIC], p)
+        alive = q if k == 0 else alive * q
+        survival[k] = alive
+    return nearest
+
+
+@jit
+def assemble(p, nf, poses, vs, omegas, survival, terminal_inv, scratch, out):
+    """``costs.assemble``: the five terms, each weighted or switched off, and the total."""
+    n_steps = vs.shape[0]
+    dt = p[DT]
+    nf_prev = nf_value(nf, p, poses[0, 0], poses[0, 1])
+    for k in range(1, n_steps + 1):
+        nf_k = nf_value(nf, p, poses[k, 0], poses[k, 1])
+        scratch[0, k - 1] = survival[k] * (nf_k - nf_prev)
+        scratch[1, k - 1] = 1.0 - survival[k]
+        nf_prev = nf_k
+        v, w = vs[k - 1], omegas[k - 1]
+        scratch[2, k - 1] = (p[C_V] * v * v + p[C_W] * w * w) * dt
+    final = survival[n_steps]
+    x, y, phi = poses[n_steps, 0], poses[n_steps, 1], poses[n_steps, 2]
+    ex, ey = descent(nf, p, x, y)
+    if p[TTG_NF] != 0.0:
+        inv_ttg = inverse_ttg_along_nf(p, nf_prev, ex, ey, x, y, phi, vs[n_steps - 1])
+    else:
+        inv_ttg = inverse_ttg(p, x, y, phi, vs[n_steps - 1])
+    s_ttg, s_ttc = p[S_TTG], p[S_TTC]
+    # The raw terms, in TERM_NAMES order: progress, action, collision, heading, terminal.
+    raw = (pairwise(scratch[0], n_steps), pairwise(scratch[2], n_steps),
+           pairwise(scratch[1], n_steps), heading_error(ex, ey, phi) * final,
+           -final * math.exp(-(inv_ttg * inv_ttg) / (s_ttg * s_ttg))
+           * math.exp(-(terminal_inv * terminal_inv) / (s_ttc * s_ttc)))
+    total = 0.0
+    for t in range(N_TERMS):
+        column = TOTAL_COLUMN + 1 + t
+        out[column] = p[W_PROGRESS + t] * raw[t] if p[ON_PROGRESS + t] != 0.0 else 0.0 * final
+        total = out[column] if t == 0 else total + out[column]
+    out[TOTAL_COLUMN] = total
+    out[INV_TTG_COLUMN] = inv_ttg
+    out[INV_TTC_TERMINAL_COLUMN] = terminal_inv
+
+
+@jit
+def rows(first, stride, z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred,
+          culled_radii, end_centres, end_radii, end_velocities, poses, vs, omegas, targets,
+          survival, out, given):
+    """Rows ``first, first + stride, ...`` of :func:`exact_costs`."""
+    n, n_steps = z.shape[0], vs.shape[1]
+    scratch = np.empty((3, n_steps))
+    pts = np.empty((fp.shape[0], 2))
+    for i in range(first, n, stride):
+        fragile = False
+        if not given:
+            fragile = rollout(z[i], p, n_steps, poses[i], vs[i], omegas[i], targets[i])
+        nearest = survival_along(p, fp, sdf, pred, radii, velocities, starts, poses[i], vs[i],
+                            survival[i], pts)
+        if culled_radii.shape[0] and not nearest <= p[CULL_FLOOR]:
+            nearest = min(nearest, culled_distance(fp, poses[i], culled_pred, culled_radii,
+                                                    pts))
+        end = poses[i, n_steps]
+        terminal_inv = 0.0
+        if p[TERMINAL] != 0.0:
+            terminal_inv = terminal_inverse_ttc(p, fp, sdf, end_centres, end_radii,
+                                                 end_velocities, end[0], end[1], end[2], pts)
+        assemble(p, nf, poses[i], vs[i], omegas[i], survival[i], terminal_inv, scratch, out[i])
+        out[i, MIN_DISTANCE_COLUMN] = nearest
+        out[i, FRAGILE_COLUMN] = 1.0 if fragile else 0.0
+
+
+@numba.njit(parallel=True, cache=True, nogil=True, fastmath=False, error_model="numpy")
+def exact_costs(z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred, culled_radii,
+                end_centres, end_radii, end_velocities, poses, vs, omegas, targets, survival,
+                out, given, threads):
+    """Roll out and cost every row of ``z`` (n, 4) on every core; results go into the outputs.
+
+    With ``given`` the rollouts already in ``poses``, ``vs``, ``omegas`` are costed instead.
+
+    ``p`` is the parameter vector; ``pred``/``radii``/``velocities`` the kept circles (objects
+    contiguous, object ``o`` is ``starts[o]:starts[o+1]``); ``culled_*`` the circles beyond
+    reach (for the smallest distance only); ``end_*`` every circle at the horizon's end
+    (terminal time to collision). Outputs: ``poses`` (n, N+1, 3), ``vs``, ``omegas`` (n, N),
+    ``targets`` (n, 3), ``survival`` (n, N+1), ``out`` (n, len(OUT)).
+    """
+    # One interleaved block of rows per thread (``threads``: numba's thread count, read by
+    # the caller; read here it would keep the kernel out of the disk cache): the thread pool
+    # hands each thread an equal run of blocks, so equal blocks keep the threads equally busy
+    # (256 blocks left one thread with 256 rows and the other 144 in a 400-row batch).
+    blocks = max(min(z.shape[0], threads), 1)
+    for b in prange(blocks):
+        rows(b, blocks, z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred,
+              culled_radii, end_centres, end_radii, end_velocities, poses, vs, omegas, targets,
+              survival, out, given)
+
+
+@numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
+def exact_costs_serial(z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred,
+                       culled_radii, end_centres, end_radii, end_velocities, poses, vs, omegas,
+                       targets, survival, out, given, threads):
+    """:func:`exact_costs` on the calling thread (``threads`` unused: one signature for both):
+    for small batches, where waking the thread pool costs more than it saves."""
+    rows(0, 1, z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred, culled_radii,
+          end_centres, end_radii, end_velocities, poses, vs, omegas, targets, survival, out,
+          given)
+
+
+__all__ = ["OUT", "exact_costs", "exact_costs_serial"]
