@@ -13,8 +13,8 @@ from .core.config import (
 )
 from .core.control_law import Trajectory, rollout, rollout_function
 from .core.cost_config import CostConfig, SmoothingConfig
-from .core.costs import CostBreakdown, evaluate
 from .core.errors import InputError
+from .core.exact_cost import CostBreakdown, evaluate
 from .core.solver_config import SolverConfig
 from .core.world import DynamicObstacle, NavigationFunction, OccupancyGrid, World
 from .solve.planner import Plan, Planner

@@ -11,7 +11,7 @@ import numpy as np
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.control_law import rollout
-from dsmpepc_nlp.core.costs import evaluate
+from dsmpepc_nlp.core.exact_cost import evaluate
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 from dsmpepc_nlp.embed import Cycle, GraphSizes, cost_function, pack_parameters
 

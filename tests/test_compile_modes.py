@@ -135,7 +135,7 @@ def test_static_uncertainty_from_the_map():
 
 def test_the_exact_cost_reads_the_derived_uncertainty():
     from dsmpepc_nlp.core.control_law import rollout
-    from dsmpepc_nlp.core.costs import evaluate
+    from dsmpepc_nlp.core.exact_cost import evaluate
 
     world = World(_grid(0.05))
     state, goal = RobotState(0.6, 2.0, 0.0), (1.8, 2.0)

@@ -8,8 +8,8 @@ import pytest
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.control_law import rollout
 from dsmpepc_nlp.core.cost_config import TERM_NAMES, CostConfig
-from dsmpepc_nlp.core.costs import evaluate
 from dsmpepc_nlp.core.errors import InputError
+from dsmpepc_nlp.core.exact_cost import evaluate
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 
 

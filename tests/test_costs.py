@@ -10,13 +10,9 @@ from hypothesis import strategies as st
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.control_law import rollout
 from dsmpepc_nlp.core.cost_config import TERM_NAMES, SmoothingConfig
-from dsmpepc_nlp.core.costs import (
-    assemble,
-    collision_probability,
-    disk_inverse_ttc,
-    evaluate,
-    inverse_ttg,
-)
+from dsmpepc_nlp.core.costs import assemble, collision_probability, disk_inverse_ttc, inverse_ttg
+from dsmpepc_nlp.core.errors import InputError
+from dsmpepc_nlp.core.exact_cost import evaluate
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 from dsmpepc_nlp.solve.planner import Planner
@@ -188,3 +184,28 @@ def test_terminal_cost_rewards_stopping_facing_free_space():
     expected = -np.exp(-(DS.robot.v_limit / 0.8) ** 2 / DS.cost.s_ttc ** 2)
     assert walled.terms["terminal"] == pytest.approx(expected)
     assert walled.terms["terminal"] > -0.01
+
+
+def test_a_growing_bell_widens_with_the_look_ahead_and_is_off_by_default():
+    """``sigma_dynamic_growth``: the moving objects' bell at a pose t seconds ahead is
+    ``sigma_dynamic + growth * t`` wide; off (0) in the product and the paper preset, where the
+    width is ``sigma_dynamic`` to the bit at every pose."""
+    import dataclasses
+
+    from dsmpepc_nlp.core.costs import dynamic_sigma
+
+    times = np.arange(26) * 0.2
+    for config in (PlannerConfig(), PlannerConfig.paper()):
+        assert config.cost.sigma_dynamic_growth == 0.0
+        assert np.all(dynamic_sigma(times, config.cost) == config.cost.sigma_dynamic)
+    grown = dataclasses.replace(DS, cost=dataclasses.replace(DS.cost, sigma_dynamic_growth=0.16))
+    np.testing.assert_allclose(dynamic_sigma(times, grown.cost), 0.2 + 0.16 * times)
+    # A pedestrian standing 1 m beside a stopped robot: the same at the start, a higher
+    # collision probability (a lower survivability) the further ahead.
+    stop = rollout(np.array([2.0, 0.0, 0.0, 0.0]), RobotState(0.0, 0.0, 0.0), DS)
+    world = World(obstacles=[DynamicObstacle.pedestrian((0.0, 1.6), (0.0, 0.0))])
+    flat, wide = (evaluate(stop, world, (5.0, 0.0), c).survivability for c in (DS, grown))
+    assert flat[0] == wide[0]
+    assert np.all(wide[1:] < flat[1:])
+    with pytest.raises(InputError, match="sigma_dynamic_growth"):
+        dataclasses.replace(DS.cost, sigma_dynamic_growth=-0.1)

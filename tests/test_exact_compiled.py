@@ -20,10 +20,11 @@ from hypothesis import strategies as st
 
 from dsmpepc_nlp.core.config import VARIANTS, PlannerConfig, RobotConfig, RobotState
 from dsmpepc_nlp.core.cost_config import TERM_NAMES, CostConfig
+from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 from dsmpepc_nlp.solve import cache, exact
 from dsmpepc_nlp.solve.cycle import PARAMETERS, Cycle
-from dsmpepc_nlp.solve.sampling import evaluate_batch, exact_totals
+from dsmpepc_nlp.solve.evaluator import Evaluator, evaluate_batch
 
 needs_kernel = pytest.mark.skipif(exact.kernel() is None,
                                   reason="compiled evaluator off (numba missing or "
@@ -71,7 +72,8 @@ def cycles(draw):
     cost = CostConfig(disabled=disabled, sigma_static=float(rng.uniform(0.05, 0.3)),
                       sigma_dynamic=float(rng.uniform(0.1, 0.4)),
                       s_ttg=draw(st.sampled_from([1e-3, 0.3])),
-                      ttg_along_nf=draw(st.booleans()))
+                      ttg_along_nf=draw(st.booleans()),
+                      sigma_dynamic_growth=draw(st.sampled_from([0.0, 0.16])))
     config = PlannerConfig.variant(variant, robot=robot, cost=cost)
     grid = None
     if draw(st.booleans()):
@@ -104,10 +106,13 @@ def test_compiled_equals_numpy_on_random_cycles(case):
     compiled = evaluate_batch(z, cycle, compiled=True)
     assert_same(compiled, reference)            # one thread
     assert_same(evaluate_batch(z, cycle, compiled=True, parallel_rows=1), reference)  # all
-    # The totals alone (the multistart's path) are the full evaluation's, to the bit.
-    np.testing.assert_array_equal(exact_totals(z, cycle), compiled.costs.total)
-    np.testing.assert_array_equal(exact_totals(z, cycle, parallel_rows=1),
-                                  compiled.costs.total)
+    # The totals alone (the multistart's path) are the full evaluation's, to the bit, and a
+    # batch costed once is read back, not costed again.
+    for solver in (SolverConfig(), SolverConfig(parallel_rows=1)):
+        evaluator = Evaluator(cycle, solver)
+        np.testing.assert_array_equal(evaluator.totals(z), compiled.costs.total)
+        assert_same(evaluator.evaluate(z), compiled, tol=0.0)
+        assert evaluator.rows_costed == len(z)
 
 
 @needs_kernel
@@ -163,9 +168,10 @@ class _MarksFragile:
 
 
 @needs_kernel
-def test_totals_alone_redo_fragile_rows_like_the_full_evaluation():
-    """``exact.total_costs`` costs fragile rows as ``evaluate_compiled`` does (the reference
-    rollout, costed again), so the multistart's totals are the full evaluation's to the bit."""
+def test_the_kernel_pass_redoes_fragile_rows_with_the_reference_rollout():
+    """``exact.kernel_pass`` rolls the rows the kernel marks fragile out again with the numpy
+    reference and costs them again: those rows go the reference's way, the others are
+    untouched, on one thread and on every core."""
     occupied = np.zeros((30, 30), bool)
     occupied[:, 20:22] = True
     world = World(OccupancyGrid(occupied, 0.1, (-1.5, -1.5)),
@@ -173,12 +179,13 @@ def test_totals_alone_redo_fragile_rows_like_the_full_evaluation():
     cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0, 0.5, 0.2), world, (2.0, 1.0),
                           PlannerConfig())
     z = edge_z(cycle.config, np.random.default_rng(5), 40)
-    plain = exact.total_costs(z, cycle, exact.kernel())
+    total = exact.kernel().OUT.index("total")
+    plain = exact.kernel_pass(z, cycle, exact.kernel())[-1][:, total]
     stub = _MarksFragile(exact.kernel(), rows=(0, 7, 30, len(z) - 1))
     for rows in (len(z) + 1, 1):                                # one thread, every core
-        totals = exact.total_costs(z, cycle, stub, rows)
-        full = exact.evaluate_compiled(z, cycle, stub, rows)[1].total
-        np.testing.assert_array_equal(totals, full)
+        raw = exact.kernel_pass(z, cycle, stub, rows)
+        totals = raw[-1][:, total]
+        np.testing.assert_array_equal(totals, exact.as_breakdown(raw, stub)[1].total)
         # The redone rows went the reference's way (not the spoilt first pass); the others
         # are untouched.
         np.testing.assert_array_equal(np.delete(totals, stub.rows), np.delete(plain, stub.rows))
@@ -187,14 +194,15 @@ def test_totals_alone_redo_fragile_rows_like_the_full_evaluation():
 
 
 def test_totals_alone_on_the_numpy_path_are_its_totals():
-    """Without the kernel, ``exact_totals`` is the numpy reference's total, chunked or not."""
+    """Without the kernel, an evaluator's totals are the numpy reference's, chunked or not."""
     cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0), World(obstacles=[
         DynamicObstacle.pedestrian((1.5, 0.2), (-0.5, 0.0))]), (3.0, 0.0), PlannerConfig())
     z = edge_z(cycle.config, np.random.default_rng(6))
     with exact.numpy_only():
         reference = evaluate_batch(z, cycle).costs.total
-        np.testing.assert_array_equal(exact_totals(z, cycle), reference)
-        np.testing.assert_array_equal(exact_totals(z, cycle, pair_budget=50), reference)
+        np.testing.assert_array_equal(Evaluator(cycle).totals(z), reference)
+        np.testing.assert_array_equal(
+            Evaluator(cycle, SolverConfig(pair_budget=50)).totals(z), reference)
 
 
 def test_out_of_box_speed_runs_the_reference():
@@ -216,14 +224,14 @@ def test_fallback_warns_once_and_agrees(tmp_path):
         "from dsmpepc_nlp.core.config import PlannerConfig, RobotState\n"
         "from dsmpepc_nlp.core.world import World, DynamicObstacle\n"
         "from dsmpepc_nlp.solve.cycle import Cycle\n"
-        "from dsmpepc_nlp.solve import exact, sampling\n"
+        "from dsmpepc_nlp.solve import evaluator, exact\n"
         "w = World(obstacles=[DynamicObstacle.pedestrian((2.0, 0.5), (-0.5, 0.0))])\n"
         "c = Cycle.prepare(RobotState(0.0, 0.0, 0.0), w, (4.0, 0.0), PlannerConfig())\n"
         "z = np.array([[2.0, 0.1, 0.2, 0.8], [1.0, 0.0, 0.0, 0.5]])\n"
         "with warnings.catch_warnings(record=True) as caught:\n"
         "    warnings.simplefilter('always')\n"
-        "    a = sampling.evaluate_batch(z, c)\n"
-        "    b = sampling.evaluate_batch(z, c)\n"
+        "    a = evaluator.evaluate_batch(z, c)\n"
+        "    b = evaluator.evaluate_batch(z, c)\n"
         "assert exact.kernel() is None\n"
         "print(len([x for x in caught if 'numpy path' in str(x.message)]))\n"
         "print(repr(a.costs.total.tolist()))\n"

@@ -13,7 +13,8 @@ import pytest
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.control_law import rollout
-from dsmpepc_nlp.core.costs import GOAL_TOLERANCE, evaluate, heading_error, inverse_ttg
+from dsmpepc_nlp.core.costs import GOAL_TOLERANCE, heading_error, inverse_ttg
+from dsmpepc_nlp.core.exact_cost import evaluate
 from dsmpepc_nlp.core.world import OccupancyGrid, World
 
 CONFIG = PlannerConfig()

@@ -12,11 +12,12 @@ import pytest
 from dsmpepc_nlp.core.config import HorizonConfig, PlannerConfig
 from dsmpepc_nlp.core.control_law import rollout
 from dsmpepc_nlp.core.cost_config import TERM_NAMES, SmoothingConfig
-from dsmpepc_nlp.core.costs import evaluate
+from dsmpepc_nlp.core.exact_cost import evaluate
 from dsmpepc_nlp.core.grid import FAR
 from dsmpepc_nlp.solve import cache, compiled
 from dsmpepc_nlp.solve import graph as g
 from dsmpepc_nlp.solve.cycle import Cycle
+from dsmpepc_nlp.solve.evaluator import Evaluator
 from dsmpepc_nlp.solve.graph.geometry import table_lookup
 
 CONFIG = PlannerConfig()
@@ -40,12 +41,15 @@ def _graph(config, sizes, smoothing, cycle, z):
     return {name: np.array(o).ravel() for name, o in zip(["cost", *TERM_NAMES], out)}
 
 
-@pytest.mark.parametrize("anticipatory", [False, True], ids=["mpepc-ttc-off", "ds-mpepc"])
-def test_graph_equals_exact_cost_at_any_z(anticipatory):
+@pytest.mark.parametrize("anticipatory, growth", [(False, 0.0), (True, 0.0), (False, 0.16)],
+                         ids=["mpepc-ttc-off", "ds-mpepc", "mpepc-growing-bell"])
+def test_graph_equals_exact_cost_at_any_z(anticipatory, growth):
     """Exact temperatures: map, NF and objects read as the exact cost reads them, at every z
-    (no reference trajectory). Only the static TTC forms differ: the tangent plane along the
-    trajectory, the sampled ray at its end."""
-    config = dataclasses.replace(CONFIG, anticipatory_pc=anticipatory)
+    (no reference trajectory), the moving objects' bell growing with the look-ahead or not.
+    Only the static TTC forms differ: the tangent plane along the trajectory, the sampled ray
+    at its end."""
+    config = dataclasses.replace(CONFIG, anticipatory_pc=anticipatory, cost=dataclasses.replace(
+        CONFIG.cost, sigma_dynamic_growth=growth))
     state, world, goal = _demo()
     z = _random_z(config, 120, 3)
     exact = evaluate(rollout(z, state, config), world, goal, config)
@@ -261,7 +265,7 @@ def test_newton_on_the_global_graph_returns_finite_records(tmp_path, monkeypatch
     start on the smooth cost."""
     from dsmpepc_nlp.core.solver_config import SolverConfig
     from dsmpepc_nlp.solve.nlp import NlpSolver
-    from dsmpepc_nlp.solve.sampling import structured_starts
+    from dsmpepc_nlp.solve.starts import structured_starts
 
     monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
     monkeypatch.setenv("DSMPEPC_NO_COMPILE", "1")
@@ -269,7 +273,7 @@ def test_newton_on_the_global_graph_returns_finite_records(tmp_path, monkeypatch
     solver = NlpSolver(SMALL_CONFIG, SolverConfig.fast(n_screen=4, max_iter=10,
                                                        pose_object_buckets=(2,)), SMALL_SIZES)
     cycle = Cycle.prepare(state, world, goal, SMALL_CONFIG)
-    records = solver.solve(cycle, structured_starts(state, goal, SMALL_CONFIG))
+    records = solver.solve(Evaluator(cycle), structured_starts(state, goal, SMALL_CONFIG))
     solved = [r for r in records if r.status != "screened" and r.name != "polish"]
     assert len(solved) == solver.n_solved == len(solver.last_stats)
     lower, upper = np.array(SMALL_CONFIG.z_lower), np.array(SMALL_CONFIG.z_upper)
@@ -310,27 +314,31 @@ def test_pose_objects_out_of_reach_change_nothing():
                                _graph(CONFIG, everything, exact, cycle, z)["cost"], atol=1e-12)
 
 
-@pytest.mark.parametrize("smooth", [False, True], ids=["exact", "smooth"])
-def test_pose_mask_skips_only_pairs_that_cannot_matter(smooth):
+@pytest.mark.parametrize("smooth, growth", [(False, 0.0), (True, 0.0), (False, 0.16)],
+                         ids=["exact", "smooth", "growing-bell"])
+def test_pose_mask_skips_only_pairs_that_cannot_matter(smooth, growth):
     """The per-pose mask skips most pose-object pairs of the crowded demo scene, and the
     cost and its gradient with it equal those with every pair computed (mask all ones), at
-    exact and at smooth temperatures."""
+    exact and at smooth temperatures, and with a bell that grows with the look-ahead (whose
+    cull distance grows with it)."""
+    config = dataclasses.replace(CONFIG, cost=dataclasses.replace(
+        CONFIG.cost, sigma_dynamic_growth=growth))
     state, world, goal = _demo()
-    cycle = Cycle.prepare(state, world, goal, CONFIG)
+    cycle = Cycle.prepare(state, world, goal, config)
     sizes = g.GraphSizes(max_objects=12)
     params = g.pack_parameters(cycle, sizes)
     mask = params["pose_mask"]
-    assert mask.shape == (CONFIG.horizon.n_steps + 1, 12)
+    assert mask.shape == (config.horizon.n_steps + 1, 12)
     assert 0.1 < mask.mean() < 0.9                    # some pairs skipped, some computed
     assert not mask[0].any()                          # nobody within reach at the start
-    smoothing = CONFIG.smoothing if smooth else SmoothingConfig.exact()
-    cost = g.build_cost_function(CONFIG, sizes, smoothing)
+    smoothing = config.smoothing if smooth else SmoothingConfig.exact()
+    cost = g.build_cost_function(config, sizes, smoothing)
     z_sym = ca.MX.sym("z", 4)
-    inputs = [z_sym, *(ca.MX.sym(n, *s) for n, s in g.parameter_shapes(CONFIG, sizes).items())]
+    inputs = [z_sym, *(ca.MX.sym(n, *s) for n, s in g.parameter_shapes(config, sizes).items())]
     value = cost(*inputs)[0]
     fg = ca.Function("fg", inputs, [value, ca.gradient(value, z_sym)])
     everywhere = dict(params, pose_mask=np.ones_like(mask))
-    for z in _random_z(CONFIG, 12, 21):
+    for z in _random_z(config, 12, 21):
         masked = [np.array(o) for o in fg(z, *(params[n] for n in g.PARAMETER_NAMES))]
         full = [np.array(o) for o in fg(z, *(everywhere[n] for n in g.PARAMETER_NAMES))]
         np.testing.assert_allclose(masked[0], full[0], rtol=0, atol=1e-12)

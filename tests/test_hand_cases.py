@@ -10,7 +10,7 @@ import pytest
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.control_law import arc_step, law_command, rollout
-from dsmpepc_nlp.core.costs import evaluate, exact_geometry
+from dsmpepc_nlp.core.exact_cost import evaluate, exact_geometry
 from dsmpepc_nlp.core.world import DynamicObstacle, World
 
 DS = PlannerConfig.ds_mpepc()

@@ -6,6 +6,7 @@ import pytest
 from dsmpepc_nlp.core import solver_config
 from dsmpepc_nlp.solve import newton
 from dsmpepc_nlp.solve.cycle import Cycle
+from dsmpepc_nlp.solve.evaluator import Evaluator
 from dsmpepc_nlp.solve.newton import box_qp, box_qp_reference, minimize
 
 
@@ -81,7 +82,7 @@ def test_newton_nlp_solver_records_are_finite_and_in_the_box(monkeypatch):
     from dsmpepc_nlp.core.world import DynamicObstacle, World
     from dsmpepc_nlp.solve.graph import GraphSizes
     from dsmpepc_nlp.solve.nlp import NlpSolver
-    from dsmpepc_nlp.solve.sampling import structured_starts
+    from dsmpepc_nlp.solve.starts import structured_starts
 
     monkeypatch.setenv("DSMPEPC_NO_COMPILE", "1")      # the logic, on the virtual machine
     cfg = PlannerConfig()
@@ -90,7 +91,7 @@ def test_newton_nlp_solver_records_are_finite_and_in_the_box(monkeypatch):
                        GraphSizes(max_objects=3, table_cells=64, ray_samples=8))
     world = World(None, [DynamicObstacle.pedestrian([2.5, 0.6], [-0.4, 0.0])])
     state, goal = RobotState(0.0, 0.0, 0.0), np.array([5.0, 0.0])
-    records = solver.solve(Cycle.prepare(state, world, goal, cfg),
+    records = solver.solve(Evaluator(Cycle.prepare(state, world, goal, cfg)),
                            structured_starts(state, goal, cfg))
     solved = [r for r in records if r.status != "screened" and r.name != "polish"]
     assert len(solved) == solver.n_solved

@@ -11,15 +11,18 @@ import pytest
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.control_law import rollout
 from dsmpepc_nlp.core.cost_config import TERM_NAMES, SmoothingConfig
-from dsmpepc_nlp.core.costs import assemble, evaluate, exact_geometry
+from dsmpepc_nlp.core.costs import assemble
+from dsmpepc_nlp.core.exact_cost import evaluate, exact_geometry
 from dsmpepc_nlp.core.smooth import CASADI
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 from dsmpepc_nlp.solve import graph
 from dsmpepc_nlp.solve.cycle import Cycle
+from dsmpepc_nlp.solve.evaluator import Evaluator
 from dsmpepc_nlp.solve.graph import cost_function
 from dsmpepc_nlp.solve.nlp import NlpSolver
-from dsmpepc_nlp.solve.sampling import SamplingPlanner, structured_starts
+from dsmpepc_nlp.solve.sampling import SamplingPlanner
+from dsmpepc_nlp.solve.starts import structured_starts
 
 CONFIG = PlannerConfig()
 SMALL = graph.GraphSizes(max_objects=3, table_cells=64, ray_samples=8)
@@ -60,7 +63,7 @@ def test_graph_with_exact_geometry_equals_numpy_assemble():
                                traj.omega[..., None], geo.heading_error, geo.inv_ttg,
                                geo.inv_ttc_terminal, CONFIG, smoothing)
         for i in range(5):
-            sigma = ca.repmat(ca.DM(geo.sigma).T, geo.distance.shape[1], 1)
+            sigma = ca.DM(geo.sigma)         # (N+1) x M: the bell widens with the look-ahead
             got, _, _ = assemble(ca.DM(geo.distance[i]), ca.DM(geo.inv_ttc[i]), sigma,
                                  ca.DM(geo.nf[i]), ca.DM(traj.v[i][:, None]),
                                  ca.DM(traj.omega[i][:, None]), geo.heading_error[i].item(),
@@ -110,7 +113,7 @@ def test_solve_returns_finite_records_within_bounds():
                        SMALL)
     state, world, goal = RobotState(0.0, 0.0, 0.0), _open_world(), np.array([5.0, 0.0])
     starts = structured_starts(state, goal, CONFIG)
-    records = solver.solve(Cycle.prepare(state, world, goal, CONFIG), starts)
+    records = solver.solve(Evaluator(Cycle.prepare(state, world, goal, CONFIG)), starts)
     names = list(starts) + ["spread-0", "spread-1"] + [f"screen-{i}" for i in range(4)]
     assert [r.name for r in records] in (names, names + ["polish"])
     assert sum(r.status != "screened" and r.name != "polish" for r in records) == solver.n_solved
@@ -134,7 +137,7 @@ def test_solve_survives_unusual_worlds(world):
     solver = NlpSolver(CONFIG, SolverConfig(n_spread=0, max_iter=8, n_screen=4, **BUCKETS),
                        SMALL)
     state, goal = RobotState(0.0, 0.0, 0.0), np.array([4.0, 0.0])
-    records = solver.solve(Cycle.prepare(state, world, goal, CONFIG),
+    records = solver.solve(Evaluator(Cycle.prepare(state, world, goal, CONFIG)),
                            structured_starts(state, goal, CONFIG))
     assert records and all(np.all(np.isfinite(r.z)) for r in records)
 
@@ -145,9 +148,29 @@ def test_open_space_nlp_matches_or_beats_4096_samples():
     state, world, goal = RobotState(0.0, 0.0, 0.0), World(None, ()), np.array([6.0, 0.5])
     planner = Planner(CONFIG, SolverConfig(n_spread=2, max_iter=20))
     plan = planner.plan(state, world, goal, dock=False)
-    sampled = SamplingPlanner(CONFIG).search(Cycle.prepare(state, world, goal, CONFIG),
+    sampled = SamplingPlanner(CONFIG).search(Evaluator(Cycle.prepare(state, world, goal, CONFIG)),
                                              structured_starts(state, goal, CONFIG))
     assert plan.fun <= sampled.costs.total[sampled.best()] + 0.01
+
+
+def test_a_plan_costs_through_one_evaluator_and_reads_its_choice_back():
+    """One evaluator per plan: the screen, the verdicts, the polish and the choice all cost
+    through it, and the chosen z's breakdown is read back from the batch that costed it (not
+    rolled out and costed again); the next plan has an evaluator of its own."""
+    from dsmpepc_nlp.solve.planner import Planner
+
+    state, world, goal = RobotState(0.0, 0.0, 0.0), _open_world(), np.array([6.0, 0.5])
+    planner = Planner(CONFIG, SolverConfig(n_spread=2, max_iter=10, n_screen=16, **BUCKETS))
+    plan = planner.plan(state, world, goal, dock=False)
+    evaluator = planner.last_evaluator
+    assert plan.status == "nlp" and evaluator.cycle.state == state
+    assert evaluator.read_back == 1 and evaluator.times_costed(plan.x) >= 1
+    assert evaluator.rows_costed == sum(rows for rows, _ in evaluator.batches)
+    chosen = min((r for r in plan.starts if np.isfinite(r.exact_cost)),
+                 key=lambda r: r.exact_cost)
+    assert plan.fun == chosen.exact_cost and np.array_equal(plan.x, chosen.z)
+    planner.plan(state, world, goal, dock=False)
+    assert planner.last_evaluator is not evaluator
 
 
 def test_robot_starting_in_collision_does_not_move():
@@ -185,13 +208,13 @@ def test_hessian_is_finite_at_stop_and_in_collision():
 
 
 def test_polish_never_returns_worse_than_the_best_candidate_and_costs_exactly():
-    from dsmpepc_nlp.solve.sampling import evaluate_batch
+    from dsmpepc_nlp.solve.evaluator import evaluate_batch
 
     state, world, goal = _demo_cycle()
     cycle = Cycle.prepare(state, world, goal, CONFIG)
     solver = NlpSolver(CONFIG, SolverConfig.fast(n_spread=0, max_iter=3, n_screen=16,
                                                  **BUCKETS), SMALL)
-    records = solver.solve(cycle, structured_starts(state, goal, CONFIG))
+    records = solver.solve(Evaluator(cycle), structured_starts(state, goal, CONFIG))
     best_start = min(r.exact_cost for r in records if r.name != "polish")
     polished = [r for r in records if r.name == "polish"]
     assert len(polished) <= 1
@@ -203,14 +226,13 @@ def test_polish_never_returns_worse_than_the_best_candidate_and_costs_exactly():
         assert np.all(record.z <= np.array(CONFIG.z_upper))
     off = NlpSolver(CONFIG, SolverConfig.fast(n_spread=0, max_iter=3, n_screen=16,
                                               polish_rounds=0, **BUCKETS), SMALL)
-    assert all(r.name != "polish" for r in off.solve(cycle, structured_starts(state, goal,
-                                                                             CONFIG)))
+    starts = structured_starts(state, goal, CONFIG)
+    assert all(r.name != "polish" for r in off.solve(Evaluator(cycle), starts))
 
 
 @pytest.mark.parametrize("margin, seeds", [(0.0, 1), (0.6, 2), (np.inf, 3)])
 def test_the_polish_leaves_out_candidates_trailing_the_best_by_more_than_its_margin(
-        monkeypatch, margin, seeds):
-    from dsmpepc_nlp.solve import nlp
+        margin, seeds):
     from dsmpepc_nlp.solve.polish import NEIGHBOURS
     from dsmpepc_nlp.solve.records import StartRecord
 
@@ -219,31 +241,23 @@ def test_the_polish_leaves_out_candidates_trailing_the_best_by_more_than_its_mar
     zs = [[2.0, 0.0, 0.0, 0.5], [3.0, 0.5, -0.5, 0.8], [1.0, -0.5, 0.5, 0.3]]
     records = [StartRecord(name, np.array(z), np.array(z), "screened", False, 0, 0.0, np.nan,
                            cost) for name, z, cost in zip("abc", zs, (-1.0, -0.5, 2.0))]
-    batches = []
-    original = nlp.exact_totals
-
-    budgets = set()
-
-    def counted(z, cycle_, **options):
-        batches.append((len(z), options["parallel_rows"]))
-        budgets.add(options["pair_budget"])     # the numpy path's chunks: the configuration's
-        return original(z, cycle_, **options)
-
-    monkeypatch.setattr(nlp, "exact_totals", counted)
     rows = len(NEIGHBOURS)
     for threads in (1, 2):
-        solver = NlpSolver(CONFIG, SolverConfig.fast(
-            polish_margin=margin, polish_starts=5, polish_rounds=2, parallel_rows=7,
-            pair_budget=123_456, solve_threads=threads, **BUCKETS), SMALL)
-        batches.clear()
-        solver.polish.run(records, cycle)
-        assert budgets == {123_456}
+        config = SolverConfig.fast(polish_margin=margin, polish_starts=5, polish_rounds=2,
+                                   parallel_rows=7, pair_budget=123_456, solve_threads=threads,
+                                   **BUCKETS)
+        solver = NlpSolver(CONFIG, config, SMALL)
+        evaluator = Evaluator(cycle, config)
+        solver.polish.run(records, evaluator)
+        # The configuration's batch sizes, not the defaults (the numpy path's chunks too).
+        assert (evaluator.parallel_rows, evaluator.pair_budget) == (7, 123_456)
         assert len(solver.polish.last["threads"]) == min(threads, seeds)
-        if threads == 1 or seeds == 1:      # one batch a round, with the configuration's
-            assert batches == [(seeds * rows, 7)] * 2       # parallel_rows, not the default
+        batches = evaluator.batches
+        if threads == 1 or seeds == 1:      # one batch a round, over both cores (>= 7 rows)
+            assert batches == [(seeds * rows, False)] * 2
         else:                       # the walks shared out over both threads, one core each
             assert len(batches) == 2 * 2 and sum(n for n, _ in batches) == 2 * seeds * rows
-            assert all(n % rows == 0 and one == n + 1 for n, one in batches)
+            assert all(n % rows == 0 and one_thread for n, one_thread in batches)
 
 
 def _assert_same_records(one, two):
@@ -311,7 +325,7 @@ def test_polishing_ahead_on_the_idle_thread_gives_the_same_plan(monkeypatch, met
     for state, world, goal in demo_cycles(CONFIG, 4, seed=0, n_samples=64):
         cycle = Cycle.prepare(state, world, goal, CONFIG)
         starts = structured_starts(state, goal, CONFIG)
-        one, two = ahead.solve(cycle, starts), after.solve(cycle, starts)
+        one, two = ahead.solve(Evaluator(cycle), starts), after.solve(Evaluator(cycle), starts)
         ahead_rounds.append(ahead.polish.last["ahead_rounds"])
         assert after.polish.last["ahead_rounds"] == 0
         polished += one[-1].name == "polish"
@@ -331,23 +345,25 @@ def test_screening_while_the_warm_start_solves_gives_the_same_plan(monkeypatch, 
     import time
 
     from dsmpepc_nlp.bench.scenes import demo_cycles
-    from dsmpepc_nlp.solve import ipopt, newton, nlp, threads
+    from dsmpepc_nlp.solve import ipopt, newton, threads
 
     if compile_:
         _compile_afresh(monkeypatch)
     events = []
     lock = threading.Lock()
-    original_exact = nlp.exact_totals
 
-    def slow_screen(z, cycle, **options):
-        screening = len(z) > 24                 # the screen, not a verdict or a polish round
-        if screening:
-            time.sleep(0.02)
-        costs = original_exact(z, cycle, **options)
-        if screening:
-            with lock:
-                events.append("screened")
-        return costs
+    class SlowScreen(Evaluator):
+        """An evaluator whose screen (not a verdict or a polish round) is slow and logged."""
+
+        def totals(self, z, one_thread=False):
+            screening = len(z) > 24
+            if screening:
+                time.sleep(0.02)
+            costs = super().totals(z, one_thread)
+            if screening:
+                with lock:
+                    events.append("screened")
+            return costs
 
     def recorded(solve, n, slots, idle=None, more=None):
         def run(i, slot):
@@ -356,7 +372,6 @@ def test_screening_while_the_warm_start_solves_gives_the_same_plan(monkeypatch, 
             return solve(i, slot)
         return threads.run_starts(run, n, slots, idle, more)
 
-    monkeypatch.setattr(nlp, "exact_totals", slow_screen)
     for module in (ipopt, newton):
         monkeypatch.setattr(module, "run_starts", recorded)
     knobs = dict(n_spread=2, max_iter=4, n_screen=32, n_solved=3, solve_threads=2,
@@ -369,12 +384,12 @@ def test_screening_while_the_warm_start_solves_gives_the_same_plan(monkeypatch, 
         cycle = Cycle.prepare(state, world, goal, CONFIG)
         starts = structured_starts(state, goal, CONFIG, previous)
         events.clear()
-        one = ahead.solve(cycle, starts)
+        one = ahead.solve(SlowScreen(cycle), starts)
         orders.append(list(events))
         best = min((r for r in one if np.isfinite(r.exact_cost)), key=lambda r: r.exact_cost)
         previous = (rollout(best.z, state, CONFIG).target, float(best.z[3]))   # as a planner
         events.clear()
-        two = first.solve(cycle, starts)
+        two = first.solve(SlowScreen(cycle), starts)
         assert events[0] == "screened"
         _assert_same_records(one, two)
     assert orders[0][0] == "screened"                     # no warm start yet: screen first
@@ -397,7 +412,7 @@ def test_the_screen_keeps_both_cores_unless_a_solve_runs_beside_it(monkeypatch, 
     state, world, goal = _demo_cycle()
     cycle = Cycle.prepare(state, world, goal, CONFIG)
     previous = (rollout(np.array([1.0, 0.0, 0.0, 0.5]), state, CONFIG).target, 0.5)
-    records = solver.solve(cycle, structured_starts(state, goal, CONFIG, previous))
+    records = solver.solve(Evaluator(cycle), structured_starts(state, goal, CONFIG, previous))
     assert any(r.name == "warm" and r.status != "screened" for r in records)
     assert solver.last_screen == {"rows": len(records), "one_thread": beside}
 
@@ -446,10 +461,10 @@ def test_the_final_polish_shares_its_walks_over_the_threads_and_ends_the_same(mo
     for state, world, goal in demo_cycles(CONFIG, 3, seed=0, n_samples=64):
         cycle = Cycle.prepare(state, world, goal, CONFIG)
         starts = structured_starts(state, goal, CONFIG)
-        one = shared.solve(cycle, starts)
+        one = shared.solve(Evaluator(cycle), starts)
         walkers = shared.polish.last["threads"]
         assert any(name.startswith("dsmpepc-walks") for name, _ in walkers)
         assert len(walkers) == 2 and sum(n for _, n in walkers) >= 2
-        two = alone.solve(cycle, starts)
+        two = alone.solve(Evaluator(cycle), starts)
         assert len(alone.polish.last["threads"]) == 1
         _assert_same_records(one, two)

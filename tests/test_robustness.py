@@ -10,8 +10,8 @@ from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 from dsmpepc_nlp.solve.cycle import Cycle
+from dsmpepc_nlp.solve.evaluator import evaluate_batch
 from dsmpepc_nlp.solve.planner import Planner
-from dsmpepc_nlp.solve.sampling import evaluate_batch
 
 SAMPLING = SolverConfig.sampling(n_samples=256)
 

@@ -12,6 +12,7 @@ from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, World
 from dsmpepc_nlp.solve import docking
 from dsmpepc_nlp.solve.cycle import Cycle
+from dsmpepc_nlp.solve.evaluator import Evaluator
 from dsmpepc_nlp.solve.planner import Planner
 from dsmpepc_nlp.solve.stall import StallMonitor
 
@@ -30,10 +31,11 @@ def test_docking_reads_the_survivability_at_arrival_not_at_the_horizons_end():
     until_end = PlannerConfig(docking=DockingConfig(arrival_radius=0.0))
     until_arrival = PlannerConfig()
     # At the horizon's end the robot has stood 4 s beside the person: 0.89, under 0.9.
-    assert docking.dock(Cycle.prepare(state, person_beside_the_goal(), goal, until_end),
+    assert docking.dock(Evaluator(Cycle.prepare(state, person_beside_the_goal(), goal, until_end)),
                         until_end) is None
     evaluated, message = docking.dock(
-        Cycle.prepare(state, person_beside_the_goal(), goal, until_arrival), until_arrival)
+        Evaluator(Cycle.prepare(state, person_beside_the_goal(), goal, until_arrival)),
+        until_arrival)
     step, survival = docking.arrival_survival(evaluated, goal, 0.1)
     assert 0 < step < until_arrival.horizon.n_steps and survival > 0.9
     assert survival > evaluated.costs.survivability[0, -1]
@@ -46,9 +48,10 @@ def test_the_product_docks_from_the_horizons_reach_and_the_paper_from_2_m():
     assert docking.docking_radius(PlannerConfig.paper()) == 2.0
     # A robot 4 m from its goal, the way clear: the product docks, the paper preset plans.
     state, goal = RobotState(0.0, 0.0, 0.0), (4.0, 0.0)
-    assert docking.dock(Cycle.prepare(state, World(), goal, product), product) is not None
+    assert docking.dock(Evaluator(Cycle.prepare(state, World(), goal, product)),
+                        product) is not None
     paper = PlannerConfig.paper()
-    assert docking.dock(Cycle.prepare(state, World(), goal, paper), paper) is None
+    assert docking.dock(Evaluator(Cycle.prepare(state, World(), goal, paper)), paper) is None
 
 
 def test_the_paper_preset_keeps_the_horizons_end_and_no_ladder():

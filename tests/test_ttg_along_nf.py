@@ -15,8 +15,9 @@ import pytest
 from dsmpepc_nlp.core.config import PlannerConfig
 from dsmpepc_nlp.core.control_law import Trajectory
 from dsmpepc_nlp.core.cost_config import CostConfig
-from dsmpepc_nlp.core.costs import evaluate, inverse_ttg, inverse_ttg_along_nf
+from dsmpepc_nlp.core.costs import inverse_ttg, inverse_ttg_along_nf
 from dsmpepc_nlp.core.errors import InputError
+from dsmpepc_nlp.core.exact_cost import evaluate
 from dsmpepc_nlp.core.world import OccupancyGrid, World
 
 GOAL = (4.0, 0.0)

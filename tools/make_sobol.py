@@ -21,4 +21,4 @@ if __name__ == "__main__":
     np.save(path, data)
     import scipy
 
-    print(f"{path}: {data.shape}; set sampling.SHIPPED_SOBOL_SCIPY = {scipy.__version__!r}")
+    print(f"{path}: {data.shape}; set starts.SHIPPED_SOBOL_SCIPY = {scipy.__version__!r}")

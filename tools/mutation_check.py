@@ -32,7 +32,8 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-TARGETS = ("dsmpepc_nlp/core/costs.py", "dsmpepc_nlp/core/control_law.py")
+TARGETS = ("dsmpepc_nlp/core/costs.py", "dsmpepc_nlp/core/exact_cost.py",
+           "dsmpepc_nlp/core/control_law.py")
 TESTS = ("tests/test_costs.py", "tests/test_control_law.py", "tests/test_cost_terms.py",
          "tests/test_hand_cases.py",
          "tests/test_smooth.py")

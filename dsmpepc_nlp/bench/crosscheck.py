@@ -23,7 +23,7 @@ class CrosscheckResult:
     gap : ndarray, (cycles,)
         ``nlp_cost - sampled_cost``; <= 0 when the NLP is as good or better.
     nlp_status : tuple of str
-        :attr:`~dsmpepc_nlp.solve.planner.Plan.status` of each NLP plan.
+        :attr:`~dsmpepc_nlp.solve.records.Plan.status` of each NLP plan.
     tol : float
         The tolerance of :attr:`share_within_tol`.
     """

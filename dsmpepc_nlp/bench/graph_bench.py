@@ -19,7 +19,7 @@ import numpy as np
 from ..core.config import PlannerConfig
 from ..core.control_law import rollout
 from ..core.cost_config import SmoothingConfig
-from ..core.costs import evaluate
+from ..core.exact_cost import evaluate
 from ..core.solver_config import SolverConfig
 from ..sim.scenario import load_scenario
 from ..sim.simulate import simulate

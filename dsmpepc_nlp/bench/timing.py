@@ -17,7 +17,8 @@ from ..core.config import PlannerConfig
 from ..core.solver_config import SolverConfig
 from ..solve import exact
 from ..solve.cycle import Cycle
-from ..solve.sampling import box_samples, evaluate_batch
+from ..solve.evaluator import Evaluator
+from ..solve.starts import box_samples
 from .scenes import demo_cycles
 
 LADDER = (64, 128, 256, 512, 1024, 2048, 4096, 8192, 16384)
@@ -220,7 +221,7 @@ def exact_timing(cycles, config: PlannerConfig, seed: int = 0, n: int = 4096,
     z = box_samples(config, n, seed)
 
     def batch():
-        evaluate_batch(z, Cycle.prepare(state, world, goal, config))
+        Evaluator(Cycle.prepare(state, world, goal, config)).evaluate(z)
 
     from ..solve.planner import Planner
 

@@ -22,7 +22,14 @@ class CostConfig:
     sigma_static: float = 0.1
     """Width of the collision-probability bell for the map, m (IROS 2012)."""
     sigma_dynamic: float = 0.2
-    """Width of the collision-probability bell for moving objects, m (IROS 2012)."""
+    """Width of the collision-probability bell for moving objects now, m (IROS 2012)."""
+    sigma_dynamic_growth: float = 0.0
+    """Growth of that width with the look-ahead t, m/s: the bell at a pose t seconds ahead is
+    ``sigma_dynamic + sigma_dynamic_growth * t`` wide (:func:`~dsmpepc_nlp.core.costs.
+    dynamic_sigma`; docs/method.md section 3.2). An extension of ours, off (the paper's constant
+    width): the constant-velocity prediction's error does grow with t (0.15-0.18 m per second
+    of look-ahead, RMS per axis, on ETH/UCY's eth and hotel), but a bell that wide lost on
+    CrowdNav's tuning episodes (docs/results.md)."""
     c_heading: float = 0.2
     """Weight of the terminal heading error against the NF descent direction, 1/rad (IROS 2012)."""
     c_v: float = 0.2
@@ -73,6 +80,7 @@ class CostConfig:
         validate_fields(self, {
             "sigma_static": positive,
             "sigma_dynamic": positive,
+            "sigma_dynamic_growth": dict(low=0.0),
             "c_heading": dict(low=0.0),
             "c_v": dict(low=0.0),
             "c_w": dict(low=0.0),

@@ -17,7 +17,7 @@ from ..core.errors import InputError
 from ..core.files import atomic_write_bytes
 from ..core.jsonio import json_clean
 from ..core.world import DynamicObstacle, OccupancyGrid, World
-from ..solve.planner import STATUSES
+from ..solve.records import STATUSES
 
 EPISODE_FORMAT = 1
 """Version of the episode file layout."""
@@ -57,7 +57,7 @@ class Episode:
     survivability, ttg, ttc_terminal : ndarray, (R, K)
         Survivability at the horizon, time to goal and terminal time to collision (s) of the plan.
     status : ndarray of int, (R, K)
-        Index into ``statuses`` (planner.STATUSES); -1 when inactive.
+        Index into ``statuses`` (records.STATUSES); -1 when inactive.
     nit, n_starts : ndarray of int, (R, K)
         NLP iterations summed over starts and number of starts.
     plan_time : ndarray, (R, K)

@@ -29,6 +29,7 @@ Families (geometry ours, from the paper's descriptions; all lengths m):
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -153,7 +154,8 @@ class Family:
     values; the quick grid is the small one tests and ``--quick`` use)."""
 
     name: str
-    build: object
+    build: Callable[[float, float], tuple[dict, OccupancyGrid | None]]
+    """``build(value, value2) -> (scenario document, map)``."""
     axis: str
     values: tuple
     quick: tuple

@@ -16,7 +16,9 @@ from ..core.config import PlannerConfig, RobotState
 from ..core.solver_config import SolverConfig
 from ..core.world import World
 from ..solve.cycle import Cycle
-from ..solve.sampling import SamplingPlanner, structured_starts
+from ..solve.evaluator import Evaluator
+from ..solve.sampling import SamplingPlanner
+from ..solve.starts import structured_starts
 
 
 @dataclass(frozen=True)
@@ -47,9 +49,9 @@ def cost_panels(state, world, goal, config: PlannerConfig, *, n_samples: int = 4
     solver = SolverConfig.sampling(n_samples=n_samples, seed=seed)
     goal = np.asarray(goal, dtype=float)
     starts = structured_starts(state, goal, config)
-    ev_mpepc = SamplingPlanner(mpepc, solver).search(Cycle.prepare(state, world, goal, mpepc),
-                                                     starts)
-    ev_ds = SamplingPlanner(ds, solver).search(Cycle.prepare(state, world, goal, ds), starts)
+    ev_mpepc, ev_ds = (
+        SamplingPlanner(c, solver).search(Evaluator(Cycle.prepare(state, world, goal, c), solver),
+                                          starts) for c in (mpepc, ds))
     poses = ev_mpepc.trajectories.poses
 
     def lowest(values):

@@ -28,8 +28,9 @@ from ..core.errors import InputError
 from ..core.geometry import footprint_points
 from ..core.solver_config import SolverConfig
 from ..core.world import DynamicObstacle, World
-from ..solve.planner import STATUSES, Planner
+from ..solve.planner import Planner
 from ..solve.policy import PlanningPolicy
+from ..solve.records import STATUSES
 from .checks import start_states
 from .episode import Episode, config_to_dict, robot_obstacle
 from .outcomes import (

@@ -15,7 +15,10 @@ import numpy as np
 
 from ..core.config import PlannerConfig, RobotState
 from ..core.control_law import _RHO_GUARD, clamp_measured
-from ..core.costs import _SIGNIFICANT_BELL, GOAL_TOLERANCE
+from ..core.costs import GOAL_TOLERANCE, dynamic_sigma
+from ..core.exact_cost import _SIGNIFICANT_BELL
+from ..core.navigation import NavigationFunction
+from ..core.world import World
 
 PARAMETERS = (
     "x0", "y0", "phi0", "v0", "omega0", "k1", "k2", "beta", "lam", "r_thresh",
@@ -25,13 +28,14 @@ PARAMETERS = (
     "nf_grid", "nf_res", "nf_ox", "nf_oy", "goal_x", "goal_y", "goal_tol2",
     "w_progress", "w_action", "w_collision", "w_heading", "w_terminal",
     "on_progress", "on_action", "on_collision", "on_heading", "on_terminal",
-    "cull_floor", "near_static", "goal_tol", "cull_sigmas", "ttg_nf")
+    "cull_floor", "near_static", "goal_tol", "cull_sigmas", "ttg_nf", "sigma_dynamic_growth")
 """Names of the kernel's scalar parameters, in the order of its parameter vector."""
 
 CULL_SIGMAS = 7.0
-"""An object farther than this many ``sigma_dynamic`` from everywhere the robot can reach has
-``1 - P_c == 1.0`` exactly in double precision (``exp(-49)`` is below half an ulp of 1), so
-leaving it out of the survivability changes no bit."""
+"""An object farther than this many bell widths (``costs.dynamic_sigma`` at that pose's time)
+from everywhere the robot can reach has ``1 - P_c == 1.0`` exactly in double precision
+(``exp(-49)`` is below half an ulp of 1), so leaving it out of the survivability changes no
+bit."""
 _REACH_SLACK = 1e-6
 """Metres added to the reach for the rounding of the rollout's sums."""
 
@@ -81,14 +85,14 @@ class Cycle:
     config: PlannerConfig
     state: RobotState
     goal: np.ndarray
-    world: object
+    world: World
     times: np.ndarray
     centers: np.ndarray
     radii: np.ndarray
     velocities: np.ndarray
     owner: np.ndarray
     predicted: np.ndarray
-    navigation: object
+    navigation: NavigationFunction
     footprint: np.ndarray = None
     reach_bounds: np.ndarray = None
     in_reach: np.ndarray = None
@@ -110,7 +114,7 @@ class Cycle:
                                       near=(state.x, state.y), reach=config.reach)
         footprint = np.array(config.robot.footprint, dtype=float)
         bounds = reach_bound(state, config, predicted, radii)
-        in_reach, floor = reach_mask(bounds, config, owner, len(world.obstacles))
+        in_reach, floor = reach_mask(bounds, config, owner, len(world.obstacles), times)
         keep = in_reach[owner]
         kept = np.flatnonzero(in_reach)
         counts = np.bincount(owner[keep], minlength=len(in_reach))[kept]
@@ -143,8 +147,8 @@ def reach_bound(state: RobotState, config: PlannerConfig, predicted, radii) -> n
     rounding slack), ``(N+1, K)`` from ``predicted`` ``(N+1, K, 2)`` and ``radii`` ``(K,)``.
 
     At step k the robot's origin is within ``k dt v_limit`` of its start (the law never exceeds
-    ``v_max <= v_limit``). Where the bound is at least ``CULL_SIGMAS * sigma_dynamic``,
-    ``1 - P_c == 1.0`` exactly (see :data:`CULL_SIGMAS`).
+    ``v_max <= v_limit``). Where the bound is at least ``CULL_SIGMAS`` times the bell's width
+    at that step (:func:`cull_distances`), ``1 - P_c == 1.0`` exactly (see :data:`CULL_SIGMAS`).
     """
     robot = config.robot
     times = np.arange(predicted.shape[0]) * config.horizon.dt
@@ -153,11 +157,18 @@ def reach_bound(state: RobotState, config: PlannerConfig, predicted, radii) -> n
             - np.asarray(radii)[None, :] - _REACH_SLACK)
 
 
-def reach_mask(bounds, config: PlannerConfig, owner, n_objects):
+def cull_distances(times, config: PlannerConfig) -> np.ndarray:
+    """``CULL_SIGMAS`` bell widths at each pose time (``times``, s): beyond them a moving
+    object's ``1 - P_c`` is 1.0 exactly, m."""
+    return CULL_SIGMAS * dynamic_sigma(np.asarray(times, dtype=float), config.cost)
+
+
+def reach_mask(bounds, config: PlannerConfig, owner, n_objects, times):
     """Which objects can matter to the collision probability within the horizon's reach.
 
     An object whose :func:`reach_bound` (``bounds``, (N+1, K)) stays at or above
-    ``CULL_SIGMAS * sigma_dynamic`` at every step is left out (see :data:`CULL_SIGMAS`).
+    :func:`cull_distances` at every step (``times``, (N+1,), s) is left out (see
+    :data:`CULL_SIGMAS`).
 
     Returns
     -------
@@ -166,10 +177,15 @@ def reach_mask(bounds, config: PlannerConfig, owner, n_objects):
         The smallest bound over the objects left out (inf when none is): an exact smallest
         distance only needs them when nothing kept is nearer.
     """
-    bound = bounds.min(axis=0) if bounds.shape[1] else np.zeros(0)
-    per_object = np.full(n_objects, np.inf)
+    has = bounds.shape[1] > 0
+    bound = bounds.min(axis=0) if has else np.zeros(0)
+    # How far inside its step's cull distance each circle comes (< 0: it can matter).
+    inside = (bounds - cull_distances(times, config)[:, None]).min(axis=0) if has \
+        else np.zeros(0)
+    per_object, margin = np.full(n_objects, np.inf), np.full(n_objects, np.inf)
     np.minimum.at(per_object, owner, bound)
-    reach = per_object < CULL_SIGMAS * config.cost.sigma_dynamic
+    np.minimum.at(margin, owner, inside)
+    reach = margin < 0.0
     floor = float(per_object[~reach].min()) if np.any(~reach) else float("inf")
     return reach, floor
 
@@ -211,6 +227,7 @@ def parameter_vector(state, goal, config: PlannerConfig, grid, navigation,
         "goal_tol2": GOAL_TOLERANCE ** 2, "goal_tol": GOAL_TOLERANCE,
         "cull_floor": cull_floor, "cull_sigmas": cull_sigmas,
         "near_static": _SIGNIFICANT_BELL * cost.sigma_static, "ttg_nf": cost.ttg_along_nf,
+        "sigma_dynamic_growth": cost.sigma_dynamic_growth,
     }
     for name, weight, enabled in terms:
         values[f"w_{name}"] = weight

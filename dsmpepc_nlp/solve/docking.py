@@ -9,15 +9,15 @@ import numpy as np
 
 from ..core.config import PlannerConfig
 from ..core.control_law import z_from_target
-from .cycle import Cycle
-from .sampling import Evaluation, clip_to_bounds, evaluate_batch
+from .evaluator import Evaluation, Evaluator
+from .starts import clip_to_bounds
 
 
-def dock(cycle: Cycle, config: PlannerConfig) -> tuple | None:
-    """``(evaluation, message)`` of the straight-to-the-goal trajectory when ``cycle``'s goal
-    is within the docking radius and that trajectory's survivability (until arrival, see
-    :func:`arrival_survival`) is above ``min_survival``; else None."""
-    state, goal = cycle.state, cycle.goal
+def dock(evaluator: Evaluator, config: PlannerConfig) -> tuple | None:
+    """``(evaluation, message)`` of the straight-to-the-goal trajectory when the goal of the
+    ``evaluator``'s cycle is within the docking radius and that trajectory's survivability
+    (until arrival, see :func:`arrival_survival`) is above ``min_survival``; else None."""
+    state, goal = evaluator.cycle.state, evaluator.cycle.goal
     docking = config.docking
     distance = math.hypot(goal[0] - state.x, goal[1] - state.y)
     radius = docking_radius(config)
@@ -25,7 +25,7 @@ def dock(cycle: Cycle, config: PlannerConfig) -> tuple | None:
         return None
     heading = math.atan2(goal[1] - state.y, goal[0] - state.x)
     z = z_from_target((goal[0], goal[1], heading), config.robot.v_limit, state.pose)
-    evaluated = evaluate_batch(clip_to_bounds(np.array(z, dtype=float), config), cycle)
+    evaluated = evaluator.evaluate(clip_to_bounds(np.array(z, dtype=float), config))
     step, survival = arrival_survival(evaluated, goal, docking.arrival_radius)
     if not survival > docking.min_survival:
         return None

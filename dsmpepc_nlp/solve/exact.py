@@ -2,8 +2,8 @@
 
 The kernel (:mod:`.kernel`, numba, both cores) rolls out and costs a batch of z from the
 flat arrays of a :class:`~dsmpepc_nlp.solve.cycle.Cycle` and returns the same
-:class:`~dsmpepc_nlp.core.costs.CostBreakdown` as the numpy reference
-(:func:`~dsmpepc_nlp.core.costs.evaluate`). The reference stays the definition: the kernel is a
+:class:`~dsmpepc_nlp.core.exact_cost.CostBreakdown` as the numpy reference
+(:func:`~dsmpepc_nlp.core.exact_cost.evaluate`). The reference stays the definition: the kernel is a
 transcription of it held to it by a property test (1e-9 on every output; see the kernel's
 docstring), and with numba missing or ``DSMPEPC_NO_COMPILE=1`` everything runs the reference,
 after one warning line.
@@ -29,7 +29,8 @@ import numpy as np
 
 from ..core.config import VARIANTS, PlannerConfig, RobotState
 from ..core.control_law import Trajectory, rollout
-from ..core.costs import CostBreakdown
+from ..core.cost_config import TERM_NAMES
+from ..core.exact_cost import CostBreakdown
 from ..core.world import DynamicObstacle, OccupancyGrid, World
 from .cache import compile_enabled, numba_folder, sources_hash, warn_once
 from .cycle import Cycle
@@ -174,42 +175,34 @@ def import_numba_module(name: str, folder: Path):
 
 def evaluate_compiled(z: np.ndarray, cycle, module,
                       parallel_rows: int = 64) -> tuple[Trajectory, CostBreakdown]:
-    """Roll out and cost ``z`` (n, 4) with the compiled kernel ``module`` from ``cycle``.
+    """Roll out and cost ``z`` (n, 4) with the compiled kernel ``module`` from ``cycle``:
+    :func:`as_breakdown` of :func:`kernel_pass`."""
+    return as_breakdown(kernel_pass(z, cycle, module, parallel_rows), module)
 
-    Batches of at least ``parallel_rows`` rows use every core, smaller ones the calling thread
+
+def as_breakdown(raw: tuple, module) -> tuple[Trajectory, CostBreakdown]:
+    """The trajectories and the :class:`CostBreakdown` of a :func:`kernel_pass`'s outputs."""
+    z, poses, v, omega, target, survival, out = raw
+    columns = dict(zip(module.OUT, out.T))
+    with np.errstate(divide="ignore"):
+        costs = CostBreakdown(
+            columns["total"].copy(),
+            {name: columns[name].copy() for name in TERM_NAMES},
+            survival, columns["min_distance"].copy(), 1.0 / columns["inv_ttg"],
+            1.0 / columns["inv_ttc_terminal"])
+    return Trajectory(z, poses, v, omega, target), costs
+
+
+def kernel_pass(z, cycle, module, parallel_rows: int = 64) -> tuple:
+    """The kernel's outputs for ``z`` (n, 4): ``(z, poses, v, omega, target, survival, out)``
+    (``out``: the columns ``module.OUT``). Batches of at least ``parallel_rows`` rows use
+    every core, smaller ones the calling thread
     (:attr:`~dsmpepc_nlp.core.solver_config.SolverConfig.parallel_rows`).
 
     Rollouts the kernel marks fragile (passing a discontinuity of the law, see
     ``kernel.layout.FRAGILE_ANGLE``) are redone with the numpy reference and costed again, so
     both paths follow the same branch there.
     """
-    z, poses, v, omega, target, survival, out = _kernel_pass(z, cycle, module, parallel_rows)
-    columns = dict(zip(module.OUT, out.T))
-    with np.errstate(divide="ignore"):
-        costs = CostBreakdown(
-            columns["total"].copy(),
-            {name: columns[name].copy() for name in
-             ("progress", "action", "collision", "heading", "terminal")},
-            survival, columns["min_distance"].copy(), 1.0 / columns["inv_ttg"],
-            1.0 / columns["inv_ttc_terminal"])
-    return Trajectory(z, poses, v, omega, target), costs
-
-
-def total_costs(z: np.ndarray, cycle, module, parallel_rows: int = 64) -> np.ndarray:
-    """The exact total cost of every row of ``z`` (n, 4): ``evaluate_compiled(...)[1].total``
-    to the bit (the same kernel pass), without building the trajectory and the breakdown.
-
-    The multistart's screen, verdicts and polish read the totals alone, and a polish round is
-    24 rows: there the breakdown's copies and objects cost as much as a fifth of the kernel
-    (docs/nlp.md, "Pass 10").
-    """
-    out = _kernel_pass(z, cycle, module, parallel_rows)[-1]
-    return out[:, module.OUT.index("total")].copy()
-
-
-def _kernel_pass(z, cycle, module, parallel_rows):
-    """The kernel's outputs for ``z``: ``(z, poses, v, omega, target, survival, out)``, the
-    fragile rows redone from the numpy reference's rollout (see :func:`evaluate_compiled`)."""
     z = np.array(z, dtype=float, order="C")  # writable and contiguous: one kernel signature
     n, n_steps = z.shape[0], cycle.config.horizon.n_steps
     poses = np.empty((n, n_steps + 1, 3))

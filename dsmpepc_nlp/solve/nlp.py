@@ -22,11 +22,12 @@ import numpy as np
 from ..core.config import PlannerConfig
 from ..core.solver_config import SolverConfig
 from . import exact, graph, solvers
+from .evaluator import Evaluator
 from .graph import PARAMETER_NAMES, GraphSizes, pack_parameters, parameter_shapes
 from .polish import Polish
 from .problem import readiness
 from .records import StartRecord
-from .sampling import box_samples, exact_totals
+from .starts import box_samples
 
 __all__ = ["NlpSolver", "pack_parameters", "GraphSizes", "PARAMETER_NAMES",
            "parameter_shapes"]
@@ -75,7 +76,7 @@ class NlpSolver:
         self.lower = np.array(config.z_lower, dtype=float)
         self.upper = np.array(config.z_upper, dtype=float)
         self.span = self.upper - self.lower
-        self.polish = Polish(self.solver_config, self.lower, self.upper, self._exact)
+        self.polish = Polish(self.solver_config, self.lower, self.upper)
         self._solver = solvers.make_solver(self.solver_config)
         self.spread = box_samples(config, self.solver_config.n_spread, self.solver_config.seed)
         self.screen = box_samples(config, self.solver_config.n_screen,
@@ -146,22 +147,25 @@ class NlpSolver:
                 order.append(int(i))
         return order
 
-    def solve(self, cycle, starts: dict) -> list:
+    def solve(self, evaluator: Evaluator, starts: dict) -> list:
         """Screen every start exactly, run the NLP from the best few; one record per start.
 
         Parameters
         ----------
-        cycle : Cycle
-            The state, world, goal and configuration of this plan, prepared once.
+        evaluator : Evaluator
+            The exact cost of this plan's cycle (:class:`~dsmpepc_nlp.solve.evaluator.
+            Evaluator`, built once per plan; its ``cycle``: the state, world, goal and
+            configuration). Every exact cost of the screen, the verdicts and the polish is
+            costed through it.
         starts : dict of str to ndarray (4,)
-            Named starts (e.g. from :func:`~dsmpepc_nlp.solve.sampling.structured_starts`); the
+            Named starts (e.g. from :func:`~dsmpepc_nlp.solve.starts.structured_starts`); the
             ``n_spread`` box starts are added as ``spread-0``, ``spread-1``, ...
 
         Returns
         -------
         list of StartRecord
             In the order of ``starts``, the spread starts, then the screening samples, each
-            with its ``exact_cost`` (from :func:`~dsmpepc_nlp.solve.sampling.exact_totals`).
+            with its ``exact_cost`` (``evaluator.totals``).
             Starts the NLP did not run from have status ``screened``, ``nit`` 0 and
             ``z = z0`` (a candidate like any other: the plan is never worse than the best
             start). Solver trouble never raises: the record has ``success=False`` and a
@@ -175,6 +179,7 @@ class NlpSolver:
         named += self._box_starts
         self.last_stats = []
         self.polish.reset()
+        cycle = evaluator.cycle
         problem = self.problem(cycle)
         packed = time.perf_counter()
         problem.bind(problem.pack(cycle))
@@ -185,7 +190,7 @@ class NlpSolver:
             """Cost every start exactly; the starts to solve from."""
             z = np.vstack([z_named, self._box_z])
             self.last_screen = {"rows": len(z), "one_thread": one_thread}
-            screened.append(self._exact(z, cycle, one_thread))
+            screened.append(evaluator.totals(z, one_thread))
             chosen.extend(self._choose(named, screened[0]))
 
         def listed():
@@ -218,8 +223,8 @@ class NlpSolver:
                 ahead = list(listed())
                 for index, result in done.items():
                     ahead[chosen[index]] = self._solved_record(named[chosen[index]], result)
-                self._verdicts(ahead, cycle, one_thread=True)
-                self.polish.ahead(ahead, cycle, walks, busy)
+                self._verdicts(ahead, evaluator, one_thread=True)
+                self.polish.ahead(ahead, evaluator, walks, busy)
         results = self._run(problem, [named[i] for i in first], idle, more)
         listed()
         for i, result in zip(chosen, results):
@@ -233,8 +238,8 @@ class NlpSolver:
                 best_cost, best_lam = result.fun, result.lam_x
         if best_lam is not None:
             self._lam_x = best_lam
-        self._verdicts(records, cycle)
-        polished = None if self.polish_skipped else self.polish.run(records, cycle, walks)
+        self._verdicts(records, evaluator)
+        polished = None if self.polish_skipped else self.polish.run(records, evaluator, walks)
         return records + ([polished] if polished is not None else [])
 
     @staticmethod
@@ -245,21 +250,13 @@ class NlpSolver:
                            result.time_s, result.fun)
 
 
-    def _exact(self, z, cycle, one_thread=False) -> np.ndarray:
-        """Exact total costs of the rows of ``z`` (``SolverConfig.parallel_rows`` decides when
-        a batch uses every core; ``one_thread``: never, for the batches run ahead while the
-        other core solves; ``SolverConfig.pair_budget``: the chunks of the numpy path)."""
-        rows = len(z) + 1 if one_thread else self.solver_config.parallel_rows
-        return exact_totals(z, cycle, parallel_rows=rows,
-                            pair_budget=self.solver_config.pair_budget)
-
-    def _verdicts(self, records, cycle, one_thread=False) -> None:
+    def _verdicts(self, records, evaluator, one_thread=False) -> None:
         """Cost the solved records exactly, in place (one exact batch; every row is costed
         as it would be alone, so the polish ahead and the final verdict agree to the bit)."""
         solved = [i for i, r in enumerate(records) if r.status != "screened"
                   and math.isnan(r.exact_cost) and np.all(np.isfinite(r.z))]
         if solved:
-            exact = self._exact(np.array([records[i].z for i in solved]), cycle, one_thread)
+            exact = evaluator.totals(np.array([records[i].z for i in solved]), one_thread)
             for i, cost in zip(solved, exact):
                 records[i] = dataclasses.replace(records[i], exact_cost=float(cost))
 

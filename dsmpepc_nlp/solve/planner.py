@@ -7,32 +7,25 @@ import math
 import os
 import time
 import warnings
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..core.config import PlannerConfig, RobotState
 from ..core.control_law import Trajectory, rollout
 from ..core.cost_config import TERM_NAMES
-from ..core.costs import CostBreakdown
 from ..core.errors import InputError
+from ..core.exact_cost import CostBreakdown
 from ..core.solver_config import SolverConfig
 from ..core.world import World
 from . import docking, exact
 from .cycle import Cycle
+from .evaluator import Evaluation, Evaluator
 from .nlp import NlpSolver
-from .sampling import Evaluation, SamplingPlanner, clip_to_bounds, evaluate_batch, structured_starts
+from .records import Plan
+from .sampling import SamplingPlanner
 from .stall import StallMonitor
 from .starting import as_state, start_overlap
-
-STATUSES = ("nlp", "sampling", "sampling-fallback", "docked", "stopped", "start-in-collision",
-            "sampling-compiling")
-"""Where a plan came from: the NLP, the sampler as chosen solver, the sampler after every NLP
-start failed, docking at a fixed goal, the stop trajectory when nothing finite was found, any
-of these from a start whose footprint already overlaps the map or an obstacle
-(``start-in-collision``: the plan is still made, and the message names the overlap), or the
-sampler while the NLP's library for this cycle's structure compiles in the background
-(``sampling-compiling``). New statuses are appended, so stored indices keep their meaning."""
+from .starts import clip_to_bounds, structured_starts
 
 FALLBACK_STATUSES = ("sampling-fallback", "stopped")
 """Statuses of a plan the chosen solver did not deliver."""
@@ -51,68 +44,6 @@ COMPILE_MODES = ("background", "wait")
 ``$DSMPEPC_COMPILE`` sets the default; :meth:`Planner.prepare` compiles everything ahead."""
 
 
-@dataclass(frozen=True)
-class Plan:
-    """The outcome of one planning cycle. Field names follow ``scipy.optimize.OptimizeResult``.
-
-    Attributes
-    ----------
-    x : ndarray, (4,)
-        The chosen z = (r, theta, delta, v_max).
-    fun : float
-        Its exact cost.
-    success : bool
-        True when the chosen solver delivered the plan (no fallback to stopping or sampling).
-    message : str
-        What happened, in words.
-    nit : int
-        Iterations summed over the NLP starts (0 for sampling and docking).
-    trajectory : Trajectory
-        The exact rollout of ``x``.
-    control : tuple of float
-        ``(v, omega)`` for the first step, m/s and rad/s; always finite and within the limits.
-    cost : CostBreakdown
-        Exact cost of ``x`` with its per-term breakdown.
-    status : str
-        One of :data:`STATUSES`.
-    starts : tuple of StartRecord
-        Every NLP start, in order.
-    wall_time : float
-        Seconds spent in :meth:`Planner.plan`.
-    evaluated : Evaluation or None
-        The sampled z with their exact costs, when the sampler ran (for plots and cross-checks).
-    fallbacks_in_row : int
-        Plans in a row, this one included, with a status in :data:`FALLBACK_STATUSES` (0 when
-        this plan is not a fallback).
-    stall_level : int
-        The stall monitor's ladder level this plan was made at (0: not stalled; see
-        :class:`~dsmpepc_nlp.core.config.StallConfig`).
-    """
-
-    x: np.ndarray
-    fun: float
-    success: bool
-    message: str
-    nit: int
-    trajectory: Trajectory
-    control: tuple
-    cost: CostBreakdown
-    status: str
-    starts: tuple = ()
-    wall_time: float = 0.0
-    evaluated: Evaluation | None = field(default=None, repr=False)
-    fallbacks_in_row: int = 0
-    stall_level: int = 0
-
-    @property
-    def z(self) -> np.ndarray:
-        """Alias of ``x``."""
-        return self.x
-
-    @property
-    def breakdown(self) -> dict:
-        """Per-term exact cost, ``{name: float}``."""
-        return {name: float(value) for name, value in self.cost.terms.items()}
 
 
 class Planner:
@@ -135,6 +66,12 @@ class Planner:
     The NLP solver is built here, once; the compiled problem of each object bucket is loaded
     on first use (or by :meth:`prepare`), and :meth:`plan` only sets parameters. A plan never
     waits for a compiler unless ``compile="wait"``.
+
+    Attributes
+    ----------
+    last_evaluator : Evaluator or None
+        The last plan's exact evaluator (:class:`~dsmpepc_nlp.solve.evaluator.Evaluator`, one
+        per plan, the one door every stage costed through): what it costed and how often.
     """
 
     def __init__(self, config: PlannerConfig | None = None, solver: SolverConfig | None = None,
@@ -157,6 +94,7 @@ class Planner:
         self._previous_target = None
         self._fallbacks, self._warned = 0, False
         self.stall = StallMonitor(self.config)
+        self.last_evaluator = None
 
     def prepare(self, max_objects: int | None = None) -> dict:
         """Compile (or load) everything a plan may need, now: the NLP's problem of every object
@@ -242,21 +180,24 @@ class Planner:
         starts = self._try(trouble, "the starts", structured_starts, state, goal, self.config,
                           self._previous_target, self.solver) or {}
         cycle = self._try(trouble, "the cycle", Cycle.prepare, state, world, goal, config)
+        # The one door to the exact cost for this plan: every stage below costs through it.
+        evaluator = None if cycle is None else Evaluator(cycle, self.solver)
+        self.last_evaluator = evaluator
         plan, evaluated, records = None, None, ()
         if dock and cycle is not None:
-            plan = self._try(trouble, "docking", self._dock, cycle)
+            plan = self._try(trouble, "docking", self._dock, evaluator)
         compiling = ""
         if plan is None and self.nlp is not None and cycle is not None \
                 and self.compile == "background":
             _, compiling = self._try(trouble, "the NLP's readiness", self.nlp.readiness,
                                     cycle) or (True, "")
         if plan is None and self.nlp is not None and cycle is not None and not compiling:
-            records = self._try(trouble, "the NLP", self._solve_nlp, cycle, starts) or ()
-            plan = self._try(trouble, "the NLP's verdict", self._choose_nlp, records, cycle)
+            records = self._try(trouble, "the NLP", self._solve_nlp, evaluator, starts) or ()
+            plan = self._try(trouble, "the NLP's verdict", self._choose_nlp, records, evaluator)
         if plan is None and cycle is not None:
             sampler = self.sampler if not compiling else self._quick_sampler()
             evaluated = evaluated or self._try(trouble, "the sampler", sampler.search,
-                                              cycle, starts)
+                                              evaluator, starts)
             if evaluated is not None:
                 plan = self._try(trouble, "the sampled verdict", self._from_evaluation,
                                 evaluated, state, fallback=self.nlp is not None, records=records,
@@ -264,7 +205,8 @@ class Planner:
         if plan is None:
             plan = self._stop(state, records)
         elif sample and evaluated is None and cycle is not None:    # docked or the NLP's
-            evaluated = self._try(trouble, "the sampler", self.sampler.search, cycle, starts)
+            evaluated = self._try(trouble, "the sampler", self.sampler.search, evaluator,
+                                  starts)
         if trouble:
             plan = _replace(plan, message="; ".join(trouble) + "; " + plan.message,
                             success=False)
@@ -303,37 +245,36 @@ class Planner:
 
     # -- the pieces of plan() ---------------------------------------------------------------
 
-    def _dock(self, cycle: Cycle) -> Plan | None:
-        docked = docking.dock(cycle, self.config)
+    def _dock(self, evaluator: Evaluator) -> Plan | None:
+        docked = docking.dock(evaluator, self.config)
         return None if docked is None else self._plan_from(docked[0], 0, "docked", True,
                                                            docked[1], 0, ())
 
-    def _solve_nlp(self, cycle: Cycle, starts) -> tuple:
+    def _solve_nlp(self, evaluator: Evaluator, starts) -> tuple:
         """Every NLP start's record with its exact cost."""
-        return self._verify(self.nlp.solve(cycle, starts), cycle)
+        return self._verify(self.nlp.solve(evaluator, starts), evaluator)
 
-    def _verify(self, original, cycle: Cycle) -> tuple:
+    def _verify(self, original, evaluator: Evaluator) -> tuple:
         """Exact cost of every start's result: the verdict on the NLP.
 
         Records that arrive with a finite ``exact_cost`` (the NLP solver costs its screened
-        starts and results with :func:`~dsmpepc_nlp.solve.sampling.exact_totals`, the totals
-        of :func:`evaluate_batch`) are not costed twice.
+        starts and results through the same evaluator) are not costed twice.
         """
         records = [r for r in original if not math.isfinite(r.exact_cost)]
         finite = [r for r in records if np.all(np.isfinite(r.z))]
         costs = {}
         if finite:
-            ev = evaluate_batch(np.array([r.z for r in finite]), cycle)
-            costs = {id(r): float(c) for r, c in zip(finite, ev.costs.total)}
+            totals = evaluator.totals(np.array([r.z for r in finite]))
+            costs = {id(r): float(c) for r, c in zip(finite, totals)}
         return tuple(r if math.isfinite(r.exact_cost)
                      else _replace(r, exact_cost=costs.get(id(r), math.nan)) for r in original)
 
-    def _choose_nlp(self, records, cycle: Cycle) -> Plan | None:
+    def _choose_nlp(self, records, evaluator: Evaluator) -> Plan | None:
         usable = [r for r in records if math.isfinite(r.exact_cost)]
         if not any(r.success for r in usable):
             return None
         best = min(usable, key=lambda r: r.exact_cost)
-        ev = evaluate_batch(best.z, cycle)
+        ev = evaluator.evaluate(best.z)       # read back from the batch that costed it
         nit = sum(r.nit for r in records)
         message = f"NLP: best of {len(records)} starts is '{best.name}' ({best.status})" + (
             "; no polish: the compiled exact kernel is loading" if self.nlp.polish_skipped else "")

@@ -56,8 +56,6 @@ class Polish:
         ``distinct`` and ``solve_threads``.
     lower, upper : ndarray, (4,)
         The z box.
-    totals : callable
-        ``totals(z (n, 4), cycle, one_thread) -> (n,)`` exact total costs.
 
     Attributes
     ----------
@@ -66,12 +64,11 @@ class Polish:
         thread), ``threads`` (``(thread name, walks)`` of each group of the final rounds).
     """
 
-    def __init__(self, solver: SolverConfig, lower, upper, totals):
+    def __init__(self, solver: SolverConfig, lower, upper):
         self.solver = solver
         self.lower, self.upper = np.asarray(lower, float), np.asarray(upper, float)
         self.span = self.upper - self.lower
         self.first_step = solver.polish_step * self.span
-        self.totals = totals
         self.last = {"ahead_rounds": 0, "threads": []}
         self._lock = threading.Lock()
 
@@ -104,13 +101,13 @@ class Polish:
             walks[key] = Walk(seed, seed.z.copy(), seed.exact_cost, self.first_step)
         return walks[key]
 
-    def round(self, walks, cycle, one_thread=False) -> None:
+    def round(self, walks, evaluator, one_thread=False) -> None:
         """One round of each walk, all in one exact batch: the 24 neighbours at its step,
         the best kept if better, the step halved."""
         z = np.array([w.z for w in walks])
         step = np.array([w.step for w in walks])
         trial = np.clip(z[:, None, :] + NEIGHBOURS * step[:, None, :], self.lower, self.upper)
-        costs = self.totals(trial.reshape(-1, 4), cycle, one_thread)
+        costs = evaluator.totals(trial.reshape(-1, 4), one_thread)
         costs = np.where(np.isfinite(costs), costs, np.inf).reshape(len(z), -1)
         for walk, row, trials in zip(walks, costs, trial):
             best = int(np.argmin(row))
@@ -119,7 +116,7 @@ class Polish:
             walk.step = walk.step / 2
             walk.rounds += 1
 
-    def ahead(self, records, cycle, walks: dict, busy) -> None:
+    def ahead(self, records, evaluator, walks: dict, busy) -> None:
         """Polish ahead (on a thread the solves left idle): walk from each seed of
         ``records`` (the screened starts and the solves finished so far) one after another,
         a round at a time, while ``busy()``. Walks are kept in ``walks``; the final polish
@@ -130,10 +127,10 @@ class Polish:
             while walk.rounds < self.solver.polish_rounds:
                 if not busy():
                     return
-                self.round([walk], cycle, one_thread=True)
+                self.round([walk], evaluator, one_thread=True)
                 self.last["ahead_rounds"] += 1
 
-    def run(self, records, cycle, walks: dict | None = None) -> StartRecord | None:
+    def run(self, records, evaluator, walks: dict | None = None) -> StartRecord | None:
         """The polish of ``records``: every seed's walk to ``polish_rounds`` (continuing the
         walks run ahead where their seed is still a seed); the record ``polish`` of the best
         walk, or None when it finds nothing better than every candidate (or is off)."""
@@ -143,7 +140,7 @@ class Polish:
             return None
         started = time.perf_counter()
         walks = [self.walk(seed, {} if walks is None else walks) for seed in seeds]
-        self.finish(walks, cycle)
+        self.finish(walks, evaluator)
         winner = min(walks, key=lambda w: w.cost)       # the first of equals, as argmin
         if not winner.cost < best:
             return None
@@ -152,7 +149,7 @@ class Polish:
                            any(r.success for r in records), rounds,
                            time.perf_counter() - started, math.nan, winner.cost)
 
-    def finish(self, walks, cycle) -> None:
+    def finish(self, walks, evaluator) -> None:
         """Every walk's remaining rounds. With several walks left and ``solve_threads``
         above 1, the walks are shared out over the threads (most rounds left first, each to
         the least loaded thread), each thread running its own walks' rounds on its core: a
@@ -162,7 +159,7 @@ class Polish:
         left = [w for w in walks if w.rounds < rounds]
         n_threads = min(self.solver.solve_threads, len(left))
         if n_threads <= 1:
-            self._walk_to_the_end(left, cycle)
+            self._walk_to_the_end(left, evaluator)
             return
         groups, loads = [[] for _ in range(n_threads)], [0] * n_threads
         for walk in sorted(left, key=lambda w: w.rounds):
@@ -170,15 +167,15 @@ class Polish:
             groups[lightest].append(walk)
             loads[lightest] += rounds - walk.rounds
         others = [threads.pool(n_threads - 1, "walks").submit(self._walk_to_the_end, group,
-                                                              cycle, True)
+                                                              evaluator, True)
                   for group in groups[1:]]
         try:
-            self._walk_to_the_end(groups[0], cycle, True)
+            self._walk_to_the_end(groups[0], evaluator, True)
         finally:
             for future in others:
                 future.result()
 
-    def _walk_to_the_end(self, walks, cycle, one_thread=False) -> None:
+    def _walk_to_the_end(self, walks, evaluator, one_thread=False) -> None:
         """Rounds of ``walks`` (in one exact batch each) until every one has had its
         ``polish_rounds``."""
         if walks:
@@ -188,7 +185,7 @@ class Polish:
             active = [w for w in walks if w.rounds < self.solver.polish_rounds]
             if not active:
                 return
-            self.round(active, cycle, one_thread)
+            self.round(active, evaluator, one_thread)
 
     def reset(self) -> None:
         """A new cycle: forget where the last one's rounds ran."""

@@ -13,7 +13,7 @@ from ...core.control_law import clamp_measured
 from ...core.errors import InputError
 from ...core.grid import FAR
 from .. import settings as settings_block
-from ..cycle import CULL_SIGMAS
+from ..cycle import cull_distances
 
 # FAR (core.grid's): the distance reported by padding objects and by a world without a map,
 # m; exp(-FAR^2/sigma^2) is exactly 0.
@@ -181,7 +181,7 @@ def pose_mask(cycle, indices, circles_per_object: int) -> np.ndarray:
     ``indices`` are the packed circles' indices among the cycle's (:func:`pack_obstacles`,
     -1 for padding); the graph moves them as the cycle predicts them (constant velocity). An
     object is 0 at a pose where ``Cycle.reach_bounds`` of every circle of it is at least
-    ``CULL_SIGMAS * sigma_dynamic``: there ``1 - P_c`` is 1.0 exactly for every z in the box,
+    its step's ``cycle.cull_distances``: there ``1 - P_c`` is 1.0 exactly for every z in the box,
     so the graph skips it (the bound that leaves whole objects out of a cycle, per pose; in
     the crowded demo scene about 70 % of the pose-object pairs).
     """
@@ -189,7 +189,7 @@ def pose_mask(cycle, indices, circles_per_object: int) -> np.ndarray:
     real = indices >= 0
     bounds[:, real] = cycle.reach_bounds[:, indices[real]]
     per_object = bounds.reshape(len(bounds), -1, circles_per_object).min(axis=2)
-    return (per_object < CULL_SIGMAS * cycle.config.cost.sigma_dynamic).astype(float)
+    return (per_object < cull_distances(cycle.times, cycle.config)[:, None]).astype(float)
 
 
 def objects_in_reach(cycle) -> int:

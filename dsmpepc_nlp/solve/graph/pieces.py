@@ -9,7 +9,13 @@ import copy
 import casadi as ca
 
 from ...core.cost_config import TERM_NAMES
-from ...core.costs import assemble, collision_probability, heading_error, terminal_inverse_ttg
+from ...core.costs import (
+    assemble,
+    collision_probability,
+    dynamic_sigma,
+    heading_error,
+    terminal_inverse_ttg,
+)
 from ...core.smooth import CASADI, is_exact, softmax_objects
 from .. import settings as settings_block
 from .geometry import (
@@ -87,8 +93,8 @@ def object_function(config, sizes, smoothing, fixed=False):
     velocity = ca.SX.sym("velocity", 1, 2)
     distance, inverse = dynamic_geometry(pose, speed, k * config.horizon.dt, circles, velocity,
                                           config, smoothing, sizes)
-    kept = 1.0 - collision_probability(distance, inverse, config.cost.sigma_dynamic, config,
-                                       smoothing, CASADI)
+    sigma = dynamic_sigma(k * config.horizon.dt, config.cost)
+    kept = 1.0 - collision_probability(distance, inverse, sigma, config, smoothing, CASADI)
     inputs = [pose, speed, k, circles, velocity, q]
     near = piece("dsmpepc_object_kept", inputs, [kept], fixed, (2, 3, 4, 5))
     # Exactly 1 with a zero derivative, written so that it reads every input: its adjoint is

@@ -7,7 +7,7 @@ Its modules import numba at their top and are imported only by :mod:`..exact` on
 to goal) and :mod:`.costs` (survivability, the assembly of the terms, the batch entry points).
 
 One source per formula: the kernel is a scalar transcription of the numpy reference
-(:func:`~dsmpepc_nlp.core.control_law.rollout`, :func:`~dsmpepc_nlp.core.costs.exact_geometry`,
+(:func:`~dsmpepc_nlp.core.control_law.rollout`, :func:`~dsmpepc_nlp.core.exact_cost.exact_geometry`,
 :func:`~dsmpepc_nlp.core.costs.assemble` with the exact smoothing,
 ``grid._interpolate``, ``OccupancyGrid.ray_distance`` and ``NavigationFunction.gradient``),
 written operation for operation in the reference's order, and a property test

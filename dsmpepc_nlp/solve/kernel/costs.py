@@ -41,6 +41,7 @@ from .layout import (
     S_TTC,
     S_TTG,
     SIGMA_DYNAMIC,
+    SIGMA_DYNAMIC_GROWTH,
     SIGMA_STATIC,
     TERMINAL,
     TOTAL_COLUMN,
@@ -95,11 +96,13 @@ def survival_along(p, fp, sdf, pred, radii, velocities, starts, poses, vs, survi
     ``cycle.CULL_SIGMAS``): its factor is skipped, which changes no bit.
     """
     n_steps = vs.shape[0]
-    far_static, far_dynamic = p[CULL_SIGMAS] * p[SIGMA_STATIC], p[CULL_SIGMAS] * p[SIGMA_DYNAMIC]
-    ttc_below = far_dynamic if p[ANTICIPATORY] != 0.0 else -math.inf
+    far_static = p[CULL_SIGMAS] * p[SIGMA_STATIC]
     nearest = math.inf
     alive = 1.0
     for k in range(n_steps + 1):
+        sigma = p[SIGMA_DYNAMIC] + p[SIGMA_DYNAMIC_GROWTH] * (k * p[DT])  # costs.dynamic_sigma
+        far_dynamic = p[CULL_SIGMAS] * sigma
+        ttc_below = far_dynamic if p[ANTICIPATORY] != 0.0 else -math.inf
         cos_h, sin_h = place(fp, poses[k, 0], poses[k, 1], poses[k, 2], pts)
         speed = vs[min(k, n_steps - 1)]
         q = 1.0
@@ -115,7 +118,7 @@ def survival_along(p, fp, sdf, pred, radii, velocities, starts, poses, vs, survi
                                   max(far_dynamic, nearest))
             nearest = min(nearest, d)
             if d < far_dynamic:
-                q *= 1.0 - collision_probability(d, inv, p[SIGMA_DYNAMIC], p)
+                q *= 1.0 - collision_probability(d, inv, sigma, p)
         alive = q if k == 0 else alive * q
         survival[k] = alive
     return nearest

@@ -1,5 +1,5 @@
 """The exact geometry, compiled: table look-ups, the ray to the map, time to collision with
-a disk, the navigation function and the terminal quantities (``costs.exact_geometry``)."""
+a disk, the navigation function and the terminal quantities (``exact_cost.exact_geometry``)."""
 
 from __future__ import annotations
 
@@ -66,7 +66,7 @@ def ray(sdf, p, sx, sy, cos_h, sin_h, clear):
 
 @jit
 def inverse(speed, along):
-    """``costs._inverse``: speed over distance, 0 for a miss, inf for contact."""
+    """``exact_cost._inverse``: speed over distance, 0 for a miss, inf for contact."""
     if math.isinf(along):
         return 0.0
     if along <= 0.0:
@@ -228,7 +228,7 @@ def inverse_ttg_along_nf(p, nf_end, ex, ey, x, y, phi, v_terminal):
 
 @jit
 def terminal_inverse_ttc(p, fp, sdf, centres, radii, velocities, x, y, phi, pts):
-    """``costs._terminal_inverse_ttc``: along the terminal heading at v_limit, every circle."""
+    """``exact_cost._terminal_inverse_ttc``: along the terminal heading at v_limit, every circle."""
     cos_h, sin_h = place(fp, x, y, phi, pts)
     inv = 0.0
     if p[HAS_GRID] != 0.0:

@@ -72,5 +72,6 @@ NEAR_STATIC = PARAMETERS.index('near_static')
 GOAL_TOL = PARAMETERS.index('goal_tol')
 CULL_SIGMAS = PARAMETERS.index('cull_sigmas')
 TTG_NF = PARAMETERS.index('ttg_nf')
+SIGMA_DYNAMIC_GROWTH = PARAMETERS.index('sigma_dynamic_growth')
 
 jit = numba.njit(cache=False, fastmath=False, error_model="numpy")
