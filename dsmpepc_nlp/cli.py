@@ -33,7 +33,7 @@ from .sim.metrics import episode_metrics
 from .sim.panels import cost_panels
 from .sim.scenario import builtin_names, load_scenario
 from .sim.simulate import simulate
-from .solve.exact import build as build_exact
+from .solve.exact import build_kernel
 from .viz import figures
 
 DEFAULT_SAMPLE_CYCLES = 5
@@ -304,14 +304,14 @@ def cmd_build(args) -> int:
     nlp = {}
     worker = None
     if getattr(args, "nlp", False):     # the C compiles run in child processes meanwhile
-        from .solve.solvers import build as build_nlp
+        from .solve.solvers import build_problems
 
         robots = {a.robot for name in builtin_names() if args.scenario_robots
                   for a in load_scenario(name).agents if a.robot is not None}
-        worker = threading.Thread(target=lambda: nlp.update(build_nlp(robots=sorted(
+        worker = threading.Thread(target=lambda: nlp.update(build_problems(robots=sorted(
             robots, key=repr))), daemon=True)
         worker.start()
-    result = build_exact()
+    result = build_kernel()
     if not result["compiled"]:
         print("compiled evaluator off (DSMPEPC_NO_COMPILE or no numba): the numpy path runs")
     else:

@@ -62,6 +62,7 @@ def test_a_failed_background_compile_is_retried_then_left_to_the_planner(tmp_pat
     from dsmpepc_nlp.solve import problem
 
     monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))           # nothing is cached
+    monkeypatch.setattr(problem, "_BUILT", set())                     # nor built by a test
     monkeypatch.setattr(background, "_CHILDREN", {})
     monkeypatch.setattr(background, "_TRIES", {})
     warned, spawned = [], []

@@ -132,9 +132,9 @@ def test_compiled_functions_equal_the_virtual_machine_and_are_cached(tmp_path, m
         made.append(True)
         return cost
 
-    built = compiled.build(make, step, (SMALL_CONFIG, SMALL_SIZES))
+    built = compiled.load_or_compile(make, step, (SMALL_CONFIG, SMALL_SIZES))
     assert built.compiled and len(made) == 1
-    again = compiled.build(make, step, (SMALL_CONFIG, SMALL_SIZES))
+    again = compiled.load_or_compile(make, step, (SMALL_CONFIG, SMALL_SIZES))
     assert again.compiled and len(made) == 1          # no graph built, no compiler run
     assert again.n_params == built.n_params == cost.size1_in(1)
     assert len(list((tmp_path).rglob("*.so"))) == 1
@@ -249,8 +249,8 @@ def test_no_compile_falls_back_to_the_virtual_machine_with_one_warning(tmp_path,
     cost, step = _small_functions()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        first = compiled.build(lambda: cost, step, (SMALL_CONFIG, SMALL_SIZES))
-        compiled.build(lambda: cost, step, (SMALL_CONFIG, SMALL_SIZES))
+        first = compiled.load_or_compile(lambda: cost, step, (SMALL_CONFIG, SMALL_SIZES))
+        compiled.load_or_compile(lambda: cost, step, (SMALL_CONFIG, SMALL_SIZES))
     assert not first.compiled
     assert len([w for w in caught if "virtual machine" in str(w.message)]) == 1
     assert not list(tmp_path.rglob("*.so"))

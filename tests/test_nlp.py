@@ -439,7 +439,7 @@ def test_both_solvers_lower_the_smooth_cost_from_their_start(hessian):
 def test_build_prepares_every_object_bucket_of_a_variant():
     from dsmpepc_nlp.solve import solvers
 
-    result = solvers.build(["mpepc"], SolverConfig(pose_object_buckets=(0, 2)))
+    result = solvers.build_problems(["mpepc"], SolverConfig(pose_object_buckets=(0, 2)))
     assert result["problems"] == 2 and result["compiled"] is False   # virtual machine here
 
 

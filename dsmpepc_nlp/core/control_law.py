@@ -192,36 +192,27 @@ def rollout(z, state: RobotState, config: PlannerConfig, smoothing=EXACT) -> Tra
     return result[0] if z.ndim == 1 else result
 
 
-def step_function(config: PlannerConfig, smoothing=None) -> ca.Function:
-    """One step of the law as a CasADi ``Function`` (SX): ``(carry[5], target[3], v_max) ->
-    (carry_next[5], v, omega)``; ``smoothing`` defaults to ``config.smoothing``."""
-    smoothing = config.smoothing if smoothing is None else smoothing
-    carry = ca.SX.sym("carry", 5)
-    target = ca.SX.sym("target", 3)
-    v_max = ca.SX.sym("v_max")
-    nxt, v, omega = step(ca.vertsplit(carry), ca.vertsplit(target), v_max, config, smoothing,
-                         CASADI)
-    return ca.Function("law_step", [carry, target, v_max], [ca.vertcat(*nxt), v, omega],
-                       ["carry", "target", "v_max"], ["carry_next", "v", "omega"])
-
-
 def symbolic_rollout(z, state, config: PlannerConfig, smoothing=None):
-    """Rollout on CasADi symbols: ``z`` (4x1), ``state`` (5x1: x, y, phi, v, omega).
+    """Rollout on CasADi symbols (SX or MX): ``z`` (4x1), ``state`` (5x1: x, y, phi, v, omega).
 
-    Returns ``(poses, v, omega, target)`` as ``(N+1)x3``, ``Nx1``, ``Nx1``, ``3x1`` expressions.
-    The measured velocity is expected already clamped (see :func:`clamp_measured`).
+    Returns ``(poses, v, omega, target)`` as ``3x(N+1)``, ``Nx1``, ``Nx1``, ``3x1`` expressions:
+    :func:`step` N times, the one loop the NLP's graph and :func:`rollout_function` share. The
+    measured velocity is expected already clamped (see :func:`clamp_measured`); a negative
+    ``v_max`` counts as 0 (an SQP iterate may leave the box by the QP's tolerance, seen:
+    -2.8e-3, and the smooth speed cap of a negative ``v_max`` is NaN).
     """
-    law_step = step_function(config, smoothing)
-    pose0 = [state[0], state[1], state[2]]
-    target = ca.vertcat(*target_pose([z[0], z[1], z[2]], pose0, CASADI))
-    carry = state
-    poses, vs, omegas = [ca.horzcat(*pose0)], [], []
+    smoothing = config.smoothing if smoothing is None else smoothing
+    target = ca.vertcat(*target_pose([z[0], z[1], z[2]], [state[0], state[1], state[2]], CASADI))
+    v_max = ca.fmax(z[3], 0.0)
+    carry, poses, vs, omegas = state, [state[:3]], [], []
     for _ in range(config.horizon.n_steps):
-        carry, v, omega = law_step(carry, target, z[3])
-        poses.append(carry[:3].T)
+        carry, v, omega = step(ca.vertsplit(carry), ca.vertsplit(target), v_max, config,
+                               smoothing, CASADI)
+        carry = ca.vertcat(*carry)
+        poses.append(carry[:3])
         vs.append(v)
         omegas.append(omega)
-    return ca.vertcat(*poses), ca.vertcat(*vs), ca.vertcat(*omegas), target
+    return ca.horzcat(*poses), ca.vertcat(*vs), ca.vertcat(*omegas), target
 
 
 def rollout_function(config: PlannerConfig, smoothing=None) -> ca.Function:
@@ -235,5 +226,5 @@ def rollout_function(config: PlannerConfig, smoothing=None) -> ca.Function:
     z = ca.SX.sym("z", 4)
     state = ca.SX.sym("state", 5)
     poses, v, omega, target = symbolic_rollout(z, state, config, smoothing)
-    return ca.Function("rollout", [z, state], [poses, v, omega, target],
+    return ca.Function("rollout", [z, state], [poses.T, v, omega, target],
                        ["z", "state"], ["poses", "v", "omega", "target"])

@@ -298,7 +298,7 @@ class Compiled:
         return self._c[name](z)
 
 
-def build(make_cost, fd_step, key_parts: tuple, hessian="differences") -> Compiled:
+def load_or_compile(make_cost, fd_step, key_parts: tuple, hessian="differences") -> Compiled:
     """Compile (or load from the cache) the problem's functions for one structure.
 
     ``make_cost()`` returns the cost graph ``cost(z, p) -> f``. It is called only when the
@@ -329,7 +329,7 @@ def is_cached(key: str) -> bool:
 
 
 def library_key(*key_parts, hessian="differences", fd_step=None) -> str:
-    """The cache key of the library :func:`build` makes of these arguments."""
+    """The cache key of the library :func:`load_or_compile` makes of these arguments."""
     steps = None if fd_step is None else tuple(np.asarray(fd_step, dtype=float).tolist())
     return config_key(*key_parts, hessian, steps, source_hash(), ca.__version__,
                       _compiler_identity(), COMPILE_FLAGS)
@@ -346,5 +346,5 @@ def _compiler_identity() -> str:
     return f"{path}:{stat.st_size}:{stat.st_mtime_ns}"
 
 
-__all__ = ["BOUND_NAMES", "CFunction", "Compiled", "build", "compile_library", "problem_functions",
-           "source_hash", "specialise"]
+__all__ = ["BOUND_NAMES", "CFunction", "Compiled", "compile_library", "load_or_compile",
+           "problem_functions", "source_hash", "specialise"]

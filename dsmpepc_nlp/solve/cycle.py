@@ -15,6 +15,7 @@ import numpy as np
 
 from ..core.config import PlannerConfig, RobotState
 from ..core.control_law import _RHO_GUARD, clamp_measured
+from ..core.cost_config import TERM_NAMES
 from ..core.costs import GOAL_TOLERANCE, dynamic_sigma
 from ..core.exact_cost import _SIGNIFICANT_BELL
 from ..core.navigation import NavigationFunction
@@ -26,10 +27,10 @@ PARAMETERS = (
     "has_grid", "sdf_res", "sdf_ox", "sdf_oy", "ttc_range", "sigma_static",
     "sigma_dynamic", "a", "s_ttc", "s_ttg", "c_v", "c_w", "anticipatory", "terminal",
     "nf_grid", "nf_res", "nf_ox", "nf_oy", "goal_x", "goal_y", "goal_tol2",
-    "w_progress", "w_action", "w_collision", "w_heading", "w_terminal",
-    "on_progress", "on_action", "on_collision", "on_heading", "on_terminal",
+    *(f"w_{name}" for name in TERM_NAMES), *(f"on_{name}" for name in TERM_NAMES),
     "cull_floor", "near_static", "goal_tol", "cull_sigmas", "ttg_nf", "sigma_dynamic_growth")
-"""Names of the kernel's scalar parameters, in the order of its parameter vector."""
+"""Names of the kernel's scalar parameters, in the order of its parameter vector: each term of
+the term table (``TERM_NAMES``) has its weight ``w_<term>`` and its switch ``on_<term>``."""
 
 CULL_SIGMAS = 7.0
 """An object farther than this many bell widths (``costs.dynamic_sigma`` at that pose's time)

@@ -247,7 +247,7 @@ def inside_reach(z: np.ndarray, cycle) -> bool:
                                                   & (v_max <= cycle.config.robot.v_limit)))
 
 
-def build() -> dict:
+def build_kernel() -> dict:
     """Compile (or load) the kernel and run it once per built-in configuration.
 
     One compiled kernel serves every configuration; running each variant (MPEPC, DS-MPEPC and

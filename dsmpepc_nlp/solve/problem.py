@@ -80,7 +80,7 @@ class Problem:
         # numbers (the ``settings`` block), so the library is keyed by structure alone.
         self.steps = solver.fd_step * (self.upper - self.lower)
         hessian = "exact" if solver.hessian == "exact" else "differences"
-        self.functions = compiled.build(lambda: graph.flat_cost(config, sizes), None,
+        self.functions = compiled.load_or_compile(lambda: graph.flat_cost(config, sizes), None,
                                         structure_key(config, sizes), hessian)
         self.n_params = self.functions.n_params
         self.p = np.zeros(self.n_params)

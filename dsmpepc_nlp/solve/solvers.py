@@ -121,7 +121,7 @@ class NewtonSolver:
                            **counts)
 
 
-def build(variants=None, solver: SolverConfig | None = None, workers: int | None = None,
+def build_problems(variants=None, solver: SolverConfig | None = None, workers: int | None = None,
           robots=()) -> dict:
     """Compile (or load) the graph of every built-in variant and object bucket ahead of use,
     for the default robot and each of ``robots`` (``RobotConfig``: the built-in scenarios'
@@ -206,5 +206,5 @@ def make_solver(solver: SolverConfig):
                      "'newton'")
 
 
-__all__ = ["IpoptSolver", "NewtonSolver", "Problem", "SolveResult", "build", "make_solver",
+__all__ = ["IpoptSolver", "NewtonSolver", "Problem", "SolveResult", "build_problems", "make_solver",
            "problem", "snap", "sr1"]

@@ -26,7 +26,7 @@ Everything but the look-ups is SX (compact derivatives); the cost is ``costs.ass
 formula the exact cost uses. Accuracy and speed, with the commands, are in ``docs/nlp.md``.
 
 The package: :mod:`.layout` (the parameter blocks: sizes, names, shapes, and the packing of a
-cycle into them, one layout in one file), :mod:`.geometry` (the formulas on symbols: rollout,
+cycle into them, one layout in one file), :mod:`.geometry` (the formulas on symbols:
 look-ups, static and dynamic geometry, the terminal ray), :mod:`.pieces` (the small SX functions
 the graph calls) and :mod:`.build` (the graph, and the cost to embed).
 """

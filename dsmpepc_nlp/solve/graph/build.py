@@ -7,8 +7,9 @@ import casadi as ca
 import numpy as np
 
 from ...core.config import PlannerConfig
+from ...core.control_law import symbolic_rollout
 from ...core.cost_config import TERM_NAMES
-from .geometry import law_rollout, lookups, table_lookup
+from .geometry import lookups, table_lookup
 from .layout import PARAMETER_NAMES, GraphSizes, parameter_shapes, resolved_sizes
 from .pieces import (
     final_functions,
@@ -44,7 +45,8 @@ def build_cost_function(config: PlannerConfig, sizes: GraphSizes, smoothing=None
     z_sx, state_sx = ca.SX.sym("z", 4), ca.SX.sym("state", 5)
     q, sym_config, sym_smoothing = symbolic(config, smoothing)
     rollout = piece("dsmpepc_rollout", [z_sx, state_sx, q],
-                     list(law_rollout(z_sx, state_sx, sym_config, sym_smoothing)), fixed, (1, 2))
+                     list(symbolic_rollout(z_sx, state_sx, sym_config, sym_smoothing)[:3]),
+                     fixed, (1, 2))
     pose_query, pose_geometry = pose_functions(config, sizes, smoothing, fixed)
     object_kept = object_function(config, sizes, smoothing, fixed)
     ray_query, terminal = terminal_functions(config, sizes, smoothing, fixed)

@@ -1,12 +1,12 @@
-"""The graph's formulas on CasADi symbols: the law's rollout, the table look-ups and their
-central differences, the static and dynamic geometry of a pose, and the terminal ray."""
+"""The graph's formulas on CasADi symbols: the table look-ups and their central differences,
+the static and dynamic geometry of a pose, and the terminal ray. (The rollout is the control
+law's own, ``control_law.symbolic_rollout``.)"""
 
 from __future__ import annotations
 
 import casadi as ca
 import numpy as np
 
-from ...core.control_law import step, target_pose
 from ...core.costs import disk_inverse_ttc
 from ...core.geometry import body_to_world
 from ...core.smooth import CASADI, is_exact, relu, sigmoid, smax, softmax_objects, softmin_objects
@@ -53,23 +53,6 @@ def _stencil_points(points, frame):
     """Every point with its four neighbours one cell away: 2 x (5 n), stencil-major."""
     res = frame[2]
     return ca.horzcat(*(points + res * ca.DM([dx, dy]) for dx, dy in STENCIL))
-
-
-def law_rollout(z, state, config, smoothing):
-    """Poses (3 x (N+1)), speeds and turn rates (N x 1 each) of the law from ``state``."""
-    target = ca.vertcat(*target_pose([z[0], z[1], z[2]], [state[0], state[1], state[2]], CASADI))
-    # SQP iterates can leave the box by the QP's tolerance (seen: v_max = -2.8e-3); a negative
-    # v_max makes the law's smooth speed cap NaN (a negative base to the power 1/t).
-    v_max = ca.fmax(z[3], 0.0)
-    carry, poses, vs, omegas = state, [state[:3]], [], []
-    for _ in range(config.horizon.n_steps):
-        carry, v, omega = step(ca.vertsplit(carry), ca.vertsplit(target), v_max, config,
-                               smoothing, CASADI)
-        carry = ca.vertcat(*carry)
-        poses.append(carry[:3])
-        vs.append(v)
-        omegas.append(omega)
-    return ca.horzcat(*poses), ca.vertcat(*vs), ca.vertcat(*omegas)
 
 
 def circle_centres(poses, config):

@@ -36,7 +36,7 @@ from .layout import (
     INV_TTG_COLUMN,
     MIN_DISTANCE_COLUMN,
     N_TERMS,
-    ON_PROGRESS,
+    ON_FIRST_TERM,
     OUT,
     S_TTC,
     S_TTG,
@@ -46,7 +46,7 @@ from .layout import (
     TERMINAL,
     TOTAL_COLUMN,
     TTG_NF,
-    W_PROGRESS,
+    W_FIRST_TERM,
     A,
     jit,
 )
@@ -153,7 +153,7 @@ def assemble(p, nf, poses, vs, omegas, survival, terminal_inv, scratch, out):
     total = 0.0
     for t in range(N_TERMS):
         column = TOTAL_COLUMN + 1 + t
-        out[column] = p[W_PROGRESS + t] * raw[t] if p[ON_PROGRESS + t] != 0.0 else 0.0 * final
+        out[column] = p[W_FIRST_TERM + t] * raw[t] if p[ON_FIRST_TERM + t] != 0.0 else 0.0 * final
         total = out[column] if t == 0 else total + out[column]
     out[TOTAL_COLUMN] = total
     out[INV_TTG_COLUMN] = inv_ttg
