@@ -111,7 +111,7 @@ class Evaluator:
             if rows is not None:
                 with self._lock:
                     self.read_back += 1
-                return batch.evaluation()[rows]
+                return batch.evaluation(rows)
         return self._cost(z, False).evaluation()
 
     def times_costed(self, z) -> int:
@@ -154,11 +154,16 @@ class _Batch:
             return self._raw[-1][:, self._module.OUT.index("total")]
         return self._evaluation.costs.total
 
-    def evaluation(self) -> Evaluation:
-        if self._evaluation is None:
-            trajectories, costs = exact.as_breakdown(self._raw, self._module)
-            self._evaluation = Evaluation(self.z, trajectories, costs)
-        return self._evaluation
+    def evaluation(self, rows=None) -> Evaluation:
+        """The batch (or its ``rows``, an index array) as an Evaluation."""
+        if self._evaluation is not None:
+            return self._evaluation if rows is None else self._evaluation[rows]
+        raw = self._raw if rows is None else tuple(a[rows] for a in self._raw)
+        trajectories, costs = exact.as_breakdown(raw, self._module)
+        evaluation = Evaluation(raw[0], trajectories, costs)
+        if rows is None:
+            self._evaluation = evaluation
+        return evaluation
 
     def rows_of(self, z: np.ndarray):
         """Indices of the rows of ``z`` in this batch (the first match of each), or None

@@ -24,7 +24,7 @@ from .nlp import NlpSolver
 from .records import Plan
 from .sampling import SamplingPlanner
 from .stall import StallMonitor
-from .starting import as_state, start_overlap
+from .start_state import as_state, start_overlap
 from .starts import clip_to_bounds, structured_starts
 
 FALLBACK_STATUSES = ("sampling-fallback", "stopped")
