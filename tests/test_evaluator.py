@@ -1,0 +1,62 @@
+"""The one door to the exact cost: an Evaluator per cycle keeps what it costed and reads it back."""
+
+import numpy as np
+import pytest
+
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState
+from dsmpepc_nlp.core.solver_config import SolverConfig
+from dsmpepc_nlp.core.world import DynamicObstacle, World
+from dsmpepc_nlp.solve import exact
+from dsmpepc_nlp.solve.cycle import Cycle
+from dsmpepc_nlp.solve.evaluator import Evaluator, evaluate_batch
+from dsmpepc_nlp.solve.starts import box_samples
+
+CONFIG = PlannerConfig()
+
+
+def _cycle():
+    world = World(obstacles=[DynamicObstacle.pedestrian((2.0, 0.5), (-0.5, 0.0)),
+                             DynamicObstacle.pedestrian((1.0, -1.5), (0.0, 0.6))])
+    return Cycle.prepare(RobotState(0.0, 0.0, 0.0, 0.4), world, (4.0, 0.5), CONFIG)
+
+
+def _same(a, b):
+    np.testing.assert_array_equal(a.z, b.z)
+    np.testing.assert_array_equal(a.costs.total, b.costs.total)
+    np.testing.assert_array_equal(a.costs.survivability, b.costs.survivability)
+    np.testing.assert_array_equal(a.trajectories.poses, b.trajectories.poses)
+    for name in a.costs.terms:
+        np.testing.assert_array_equal(a.costs.terms[name], b.costs.terms[name])
+
+
+@pytest.mark.parametrize("compiled", [None, False], ids=["kernel-when-loaded", "numpy"])
+def test_rows_of_one_batch_are_read_back_as_a_fresh_evaluation_gives_them(compiled):
+    cycle = _cycle()
+    z = box_samples(CONFIG, 40, 3)
+    evaluator = Evaluator(cycle, compiled=compiled)
+    totals = evaluator.totals(z)
+    assert evaluator.rows_costed == 40 and evaluator.batches == [(40, False)]
+    rows = [7, 0, 31]
+    again = evaluator.evaluate(z[rows])
+    assert evaluator.rows_costed == 40 and evaluator.read_back == 1     # nothing costed anew
+    np.testing.assert_array_equal(again.costs.total, totals[rows])
+    if compiled is None and exact.kernel() is not None:     # the kernel: row for row, to the bit
+        _same(again, evaluate_batch(z[rows], cycle))
+    assert evaluator.times_costed(z[7]) == 1
+
+
+def test_rows_from_two_batches_or_new_rows_are_costed():
+    cycle = _cycle()
+    z = box_samples(CONFIG, 20, 4)
+    evaluator = Evaluator(cycle, SolverConfig(parallel_rows=8))
+    evaluator.totals(z[:10])
+    evaluator.totals(z[10:], one_thread=True)
+    assert evaluator.batches == [(10, False), (10, True)]
+    mixed = evaluator.evaluate(z[[2, 15]])              # one row from each batch: costed again
+    assert evaluator.rows_costed == 22 and evaluator.read_back == 0
+    np.testing.assert_array_equal(mixed.costs.total,
+                                  evaluate_batch(z[[2, 15]], cycle).costs.total)
+    assert evaluator.times_costed(z[2]) == 2 and evaluator.times_costed(z[15]) == 2
+    fresh = np.array([[2.0, 0.1, -0.2, 0.7]])
+    evaluator.evaluate(fresh)
+    assert evaluator.rows_costed == 23 and evaluator.times_costed(fresh[0]) == 1
