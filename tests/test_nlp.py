@@ -173,6 +173,28 @@ def test_a_plan_costs_through_one_evaluator_and_reads_its_choice_back():
     assert planner.last_evaluator is not evaluator
 
 
+def test_while_the_kernel_loads_the_screen_keeps_to_the_named_and_spread_starts(monkeypatch):
+    """A fresh process's first plan runs the exact cost on the numpy path while the compiled
+    kernel loads: it screens the named and spread starts (not the Sobol points) and does not
+    polish; once the kernel is there (or will never come), the whole screen and the polish."""
+    from dsmpepc_nlp.solve import exact
+
+    monkeypatch.setattr(exact, "_STATE", {"kernel": None, "failed": "", "numpy_only": False,
+                                          "loading": None, "deferred": True})
+    solver = NlpSolver(CONFIG, SolverConfig(n_spread=2, n_screen=16, max_iter=5,
+                                            polish_margin=np.inf, **BUCKETS), SMALL)
+    state, world, goal = _demo_cycle()
+    cycle = Cycle.prepare(state, world, goal, CONFIG)
+    starts = structured_starts(state, goal, CONFIG)
+    records = solver.solve(Evaluator(cycle), starts)
+    assert solver.kernel_loading and solver.last_screen["rows"] == len(starts) + 2
+    assert not any(r.name.startswith("screen-") or r.name == "polish" for r in records)
+    monkeypatch.setitem(exact._STATE, "deferred", False)
+    records = solver.solve(Evaluator(cycle), starts)
+    assert not solver.kernel_loading and solver.last_screen["rows"] == len(starts) + 2 + 16
+    assert sum(r.name.startswith("screen-") for r in records) == 16
+
+
 def test_robot_starting_in_collision_does_not_move():
     """Lemma 3 through the Planner with the NLP solver."""
     from dsmpepc_nlp.solve.planner import Planner

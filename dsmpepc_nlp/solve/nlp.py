@@ -64,6 +64,9 @@ class NlpSolver:
         core beside the warm start's solve).
     polish : Polish
         The exact-cost polish (:mod:`.polish`); ``polish.last`` says where its rounds ran.
+    kernel_loading : bool
+        The last cycle was solved while the compiled exact kernel loaded (a fresh process's
+        first plan): the screen costed the named and spread starts only, and no polish ran.
     """
 
     def __init__(self, config: PlannerConfig, solver: SolverConfig | None = None,
@@ -90,7 +93,7 @@ class NlpSolver:
         self._ready = set()
         self.last_stats = []
         self.last_screen = {}
-        self.polish_skipped = False
+        self.kernel_loading = False
         self.build_s = time.perf_counter() - started
 
     def sizes_for(self, cycle) -> GraphSizes:
@@ -176,7 +179,12 @@ class NlpSolver:
                                 self.upper))
                  for name, z in ((n, np.asarray(z, dtype=float)) for n, z in starts.items())]
         z_named = np.array([z for _, z in named]).reshape(-1, 4)
-        named += self._box_starts
+        # While the compiled kernel loads (a fresh process's first plan), the numpy path costs
+        # the named and spread starts, not the screen's Sobol points, and nothing is polished.
+        self.kernel_loading = exact.standing_in()
+        box = len(self.spread) if self.kernel_loading else len(self._box_z)
+        named += self._box_starts[:box]
+        box_z = self._box_z[:box]
         self.last_stats = []
         self.polish.reset()
         cycle = evaluator.cycle
@@ -188,7 +196,7 @@ class NlpSolver:
 
         def screen(one_thread=False):
             """Cost every start exactly; the starts to solve from."""
-            z = np.vstack([z_named, self._box_z])
+            z = np.vstack([z_named, box_z])
             self.last_screen = {"rows": len(z), "one_thread": one_thread}
             screened.append(evaluator.totals(z, one_thread))
             chosen.extend(self._choose(named, screened[0]))
@@ -216,9 +224,7 @@ class NlpSolver:
         best_cost, best_lam = math.inf, None
         walks = {}
         idle = None
-        # No polish while the kernel loads (a fresh process's first plan): ~0.1 s on numpy.
-        self.polish_skipped = exact.standing_in()
-        if self.solver_config.polish_ahead and not self.polish_skipped:
+        if self.solver_config.polish_ahead and not self.kernel_loading:
             def idle(done, busy):       # called once the screen is done (threads.run_starts)
                 ahead = list(listed())
                 for index, result in done.items():
@@ -239,7 +245,7 @@ class NlpSolver:
         if best_lam is not None:
             self._lam_x = best_lam
         self._verdicts(records, evaluator)
-        polished = None if self.polish_skipped else self.polish.run(records, evaluator, walks)
+        polished = None if self.kernel_loading else self.polish.run(records, evaluator, walks)
         return records + ([polished] if polished is not None else [])
 
     @staticmethod

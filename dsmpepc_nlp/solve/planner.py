@@ -277,7 +277,8 @@ class Planner:
         ev = evaluator.evaluate(best.z)       # read back from the batch that costed it
         nit = sum(r.nit for r in records)
         message = f"NLP: best of {len(records)} starts is '{best.name}' ({best.status})" + (
-            "; no polish: the compiled exact kernel is loading" if self.nlp.polish_skipped else "")
+            "; no screen of the box, no polish: the compiled exact kernel is loading"
+            if self.nlp.kernel_loading else "")
         return self._plan_from(ev, 0, "nlp", True, message, nit, records)
 
     def _from_evaluation(self, evaluated: Evaluation, state, *, fallback: bool, records,
