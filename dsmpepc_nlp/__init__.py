@@ -15,16 +15,22 @@ from .core.control_law import Trajectory, rollout, rollout_function
 from .core.cost_config import CostConfig, SmoothingConfig
 from .core.errors import InputError
 from .core.exact_cost import CostBreakdown, evaluate
-from .core.solver_config import SolverConfig
+from .core.solver_config import (
+    LocalSolverSettings,
+    MultistartSettings,
+    ParallelSettings,
+    PolishSettings,
+    SolverConfig,
+)
 from .core.world import DynamicObstacle, NavigationFunction, OccupancyGrid, World
 from .solve.planner import Plan, Planner
 from .solve.records import StartRecord
 
 __all__ = [
     "BoundsConfig", "ControlLawConfig", "CostBreakdown", "CostConfig", "DockingConfig",
-    "DynamicObstacle", "HorizonConfig", "InputError", "NavigationFunction", "OccupancyGrid",
-    "Plan", "Planner",
-    "PlannerConfig", "RobotConfig", "RobotState", "SmoothingConfig", "SolverConfig",
+    "DynamicObstacle", "HorizonConfig", "InputError", "LocalSolverSettings", "MultistartSettings",
+    "NavigationFunction", "OccupancyGrid", "ParallelSettings", "Plan", "Planner", "PlannerConfig",
+    "PolishSettings", "RobotConfig", "RobotState", "SmoothingConfig", "SolverConfig",
     "StallConfig", "StartRecord", "Trajectory", "World", "__version__", "evaluate", "rollout",
     "rollout_function",
 ]

@@ -63,9 +63,9 @@ def test_variants_differ_only_in_the_two_switches():
         (lambda: RobotState(0.0, math.inf, 0.0), "y"),
         (lambda: SolverConfig(method="bfgs"), "method"),
         (lambda: SolverConfig(n_samples=0), "n_samples"),
-        (lambda: SolverConfig(n_solved=0), "n_solved"),
-        (lambda: SolverConfig(polish_ahead="yes"), "polish_ahead"),
-        (lambda: SolverConfig(screen_ahead=1), "screen_ahead"),
+        (lambda: SolverConfig().replace(n_solved=0), "n_solved"),
+        (lambda: SolverConfig().replace(polish_ahead="yes"), "polish_ahead"),
+        (lambda: SolverConfig().replace(screen_ahead=1), "screen_ahead"),
     ],
 )
 def test_invalid_values_raise_naming_the_field(make, field):

@@ -23,7 +23,8 @@ def test_demo_cycles_are_reproducible_and_move_the_robot():
 def test_crosscheck_summary_fields():
     config = PlannerConfig()
     cycles = demo_cycles(config, 1, seed=0, n_samples=64)
-    result = crosscheck(cycles, config, SolverConfig(n_spread=0, max_iter=5), n_samples=256)
+    solver = SolverConfig().replace(n_spread=0, max_iter=5)
+    result = crosscheck(cycles, config, solver, n_samples=256)
     summary = result.to_dict()
     assert set(summary) >= {"cycles", "gap_median", "gap_p95", "share_within_tol"}
     assert summary["cycles"] == 1

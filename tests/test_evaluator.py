@@ -48,7 +48,7 @@ def test_rows_of_one_batch_are_read_back_as_a_fresh_evaluation_gives_them(compil
 def test_rows_from_two_batches_or_new_rows_are_costed():
     cycle = _cycle()
     z = box_samples(CONFIG, 20, 4)
-    evaluator = Evaluator(cycle, SolverConfig(parallel_rows=8))
+    evaluator = Evaluator(cycle, SolverConfig().replace(parallel_rows=8))
     evaluator.totals(z[:10])
     evaluator.totals(z[10:], one_thread=True)
     assert evaluator.batches == [(10, False), (10, True)]

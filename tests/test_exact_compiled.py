@@ -108,7 +108,7 @@ def test_compiled_equals_numpy_on_random_cycles(case):
     assert_same(evaluate_batch(z, cycle, compiled=True, parallel_rows=1), reference)  # all
     # The totals alone (the multistart's path) are the full evaluation's, to the bit, and a
     # batch costed once is read back, not costed again.
-    for solver in (SolverConfig(), SolverConfig(parallel_rows=1)):
+    for solver in (SolverConfig(), SolverConfig().replace(parallel_rows=1)):
         evaluator = Evaluator(cycle, solver)
         np.testing.assert_array_equal(evaluator.totals(z), compiled.costs.total)
         assert_same(evaluator.evaluate(z), compiled, tol=0.0)
@@ -202,7 +202,7 @@ def test_totals_alone_on_the_numpy_path_are_its_totals():
         reference = evaluate_batch(z, cycle).costs.total
         np.testing.assert_array_equal(Evaluator(cycle).totals(z), reference)
         np.testing.assert_array_equal(
-            Evaluator(cycle, SolverConfig(pair_budget=50)).totals(z), reference)
+            Evaluator(cycle, SolverConfig().replace(pair_budget=50)).totals(z), reference)
 
 
 def test_out_of_box_speed_runs_the_reference():

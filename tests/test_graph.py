@@ -203,10 +203,11 @@ def test_compiled_newton_loop_takes_the_python_loops_steps(tmp_path, monkeypatch
     with pytest.warns(RuntimeWarning, match="compiled Newton loop failed"):
         assert newton.minimize_compiled(problem.functions, starts, problem.lower,
                                         problem.upper) is None
-    fast = SolverConfig.fast(max_iter=25)
+    fast = SolverConfig.fast().replace(max_iter=25)
     result = solvers.NewtonSolver(fast).solve(problem, starts[0])
     python = newton.minimize(problem.f, solvers.sr1(problem), starts[0], problem.lower,
-                             problem.upper, radius=fast.trust_radius, max_iter=25, tol=fast.tol)
+                             problem.upper, radius=fast.local.trust_radius, max_iter=25,
+                             tol=fast.local.tol)
     assert result.nit == python.nit and result.fun == pytest.approx(python.fun, abs=1e-12)
 
 
@@ -227,11 +228,11 @@ def test_ipopt_solves_on_threads_are_the_solves_one_after_another(tmp_path, monk
     assert problem.functions.compiled == compile_
     problem.bind(problem.pack(_small_cycle()))
     starts = _random_z(SMALL_CONFIG, 5, 11)
-    one = solvers.IpoptSolver(SolverConfig(solve_threads=1, max_iter=15))
+    one = solvers.IpoptSolver(SolverConfig().replace(solve_threads=1, max_iter=15))
     warm = one.solve(problem, starts[0]).lam_x
     plan = [(z0, warm if i == 2 else None) for i, z0 in enumerate(starts)]
     alone = one.solve_many(problem, plan)
-    threaded = solvers.IpoptSolver(SolverConfig(solve_threads=3, max_iter=15))
+    threaded = solvers.IpoptSolver(SolverConfig().replace(solve_threads=3, max_iter=15))
     for _ in range(2):                       # the slots' nlpsol are reused on the second call
         together = threaded.solve_many(problem, plan)
         assert len(together) == len(plan)
@@ -270,7 +271,7 @@ def test_newton_on_the_global_graph_returns_finite_records(tmp_path, monkeypatch
     monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
     monkeypatch.setenv("DSMPEPC_NO_COMPILE", "1")
     state, world, goal = _demo()
-    solver = NlpSolver(SMALL_CONFIG, SolverConfig.fast(n_screen=4, max_iter=10,
+    solver = NlpSolver(SMALL_CONFIG, SolverConfig.fast().replace(n_screen=4, max_iter=10,
                                                        pose_object_buckets=(2,)), SMALL_SIZES)
     cycle = Cycle.prepare(state, world, goal, SMALL_CONFIG)
     records = solver.solve(Evaluator(cycle), structured_starts(state, goal, SMALL_CONFIG))

@@ -86,7 +86,7 @@ def test_newton_nlp_solver_records_are_finite_and_in_the_box(monkeypatch):
 
     monkeypatch.setenv("DSMPEPC_NO_COMPILE", "1")      # the logic, on the virtual machine
     cfg = PlannerConfig()
-    solver = NlpSolver(cfg, SolverConfig(method="newton", max_iter=15, n_screen=4,
+    solver = NlpSolver(cfg, SolverConfig().replace(method="newton", max_iter=15, n_screen=4,
                                          pose_object_buckets=(3,)),
                        GraphSizes(max_objects=3, table_cells=64, ray_samples=8))
     world = World(None, [DynamicObstacle.pedestrian([2.5, 0.6], [-0.4, 0.0])])

@@ -109,7 +109,8 @@ def _demo_cycle():
 
 
 def test_solve_returns_finite_records_within_bounds():
-    solver = NlpSolver(CONFIG, SolverConfig(n_spread=2, max_iter=15, n_screen=4, **BUCKETS),
+    solver = NlpSolver(CONFIG, SolverConfig().replace(n_spread=2, max_iter=15, n_screen=4,
+                                                      **BUCKETS),
                        SMALL)
     state, world, goal = RobotState(0.0, 0.0, 0.0), _open_world(), np.array([5.0, 0.0])
     starts = structured_starts(state, goal, CONFIG)
@@ -134,7 +135,8 @@ def test_solve_returns_finite_records_within_bounds():
     _walled_world(),
 ], ids=["empty", "more-than-k-max", "two-circle-robot", "map-only"])
 def test_solve_survives_unusual_worlds(world):
-    solver = NlpSolver(CONFIG, SolverConfig(n_spread=0, max_iter=8, n_screen=4, **BUCKETS),
+    solver = NlpSolver(CONFIG, SolverConfig().replace(n_spread=0, max_iter=8, n_screen=4,
+                                                      **BUCKETS),
                        SMALL)
     state, goal = RobotState(0.0, 0.0, 0.0), np.array([4.0, 0.0])
     records = solver.solve(Evaluator(Cycle.prepare(state, world, goal, CONFIG)),
@@ -146,7 +148,7 @@ def test_open_space_nlp_matches_or_beats_4096_samples():
     from dsmpepc_nlp.solve.planner import Planner
 
     state, world, goal = RobotState(0.0, 0.0, 0.0), World(None, ()), np.array([6.0, 0.5])
-    planner = Planner(CONFIG, SolverConfig(n_spread=2, max_iter=20))
+    planner = Planner(CONFIG, SolverConfig().replace(n_spread=2, max_iter=20))
     plan = planner.plan(state, world, goal, dock=False)
     sampled = SamplingPlanner(CONFIG).search(Evaluator(Cycle.prepare(state, world, goal, CONFIG)),
                                              structured_starts(state, goal, CONFIG))
@@ -160,7 +162,8 @@ def test_a_plan_costs_through_one_evaluator_and_reads_its_choice_back():
     from dsmpepc_nlp.solve.planner import Planner
 
     state, world, goal = RobotState(0.0, 0.0, 0.0), _open_world(), np.array([6.0, 0.5])
-    planner = Planner(CONFIG, SolverConfig(n_spread=2, max_iter=10, n_screen=16, **BUCKETS))
+    planner = Planner(CONFIG, SolverConfig().replace(n_spread=2, max_iter=10, n_screen=16,
+                                                     **BUCKETS))
     plan = planner.plan(state, world, goal, dock=False)
     evaluator = planner.last_evaluator
     assert plan.status == "nlp" and evaluator.cycle.state == state
@@ -181,7 +184,7 @@ def test_while_the_kernel_loads_the_screen_keeps_to_the_named_and_spread_starts(
 
     monkeypatch.setattr(exact, "_STATE", {"kernel": None, "failed": "", "numpy_only": False,
                                           "loading": None, "deferred": True})
-    solver = NlpSolver(CONFIG, SolverConfig(n_spread=2, n_screen=16, max_iter=5,
+    solver = NlpSolver(CONFIG, SolverConfig().replace(n_spread=2, n_screen=16, max_iter=5,
                                             polish_margin=np.inf, **BUCKETS), SMALL)
     state, world, goal = _demo_cycle()
     cycle = Cycle.prepare(state, world, goal, CONFIG)
@@ -201,7 +204,7 @@ def test_robot_starting_in_collision_does_not_move():
 
     world = World(None, [DynamicObstacle.pedestrian([0.2, 0.0], [0.0, 0.0])])
     state, goal = RobotState(0.0, 0.0, 0.0), np.array([5.0, 0.0])
-    plan = Planner(CONFIG, SolverConfig(n_spread=1, max_iter=15)).plan(state, world, goal,
+    plan = Planner(CONFIG, SolverConfig().replace(n_spread=1, max_iter=15)).plan(state, world, goal,
                                                                         dock=False)
     assert plan.control[0] == pytest.approx(0.0, abs=1e-6)
 
@@ -234,7 +237,7 @@ def test_polish_never_returns_worse_than_the_best_candidate_and_costs_exactly():
 
     state, world, goal = _demo_cycle()
     cycle = Cycle.prepare(state, world, goal, CONFIG)
-    solver = NlpSolver(CONFIG, SolverConfig.fast(n_spread=0, max_iter=3, n_screen=16,
+    solver = NlpSolver(CONFIG, SolverConfig.fast().replace(n_spread=0, max_iter=3, n_screen=16,
                                                  **BUCKETS), SMALL)
     records = solver.solve(Evaluator(cycle), structured_starts(state, goal, CONFIG))
     best_start = min(r.exact_cost for r in records if r.name != "polish")
@@ -246,7 +249,7 @@ def test_polish_never_returns_worse_than_the_best_candidate_and_costs_exactly():
         assert record.exact_cost == pytest.approx(exact, abs=1e-12)
         assert np.all(record.z >= np.array(CONFIG.z_lower))
         assert np.all(record.z <= np.array(CONFIG.z_upper))
-    off = NlpSolver(CONFIG, SolverConfig.fast(n_spread=0, max_iter=3, n_screen=16,
+    off = NlpSolver(CONFIG, SolverConfig.fast().replace(n_spread=0, max_iter=3, n_screen=16,
                                               polish_rounds=0, **BUCKETS), SMALL)
     starts = structured_starts(state, goal, CONFIG)
     assert all(r.name != "polish" for r in off.solve(Evaluator(cycle), starts))
@@ -265,7 +268,7 @@ def test_the_polish_leaves_out_candidates_trailing_the_best_by_more_than_its_mar
                            cost) for name, z, cost in zip("abc", zs, (-1.0, -0.5, 2.0))]
     rows = len(NEIGHBOURS)
     for threads in (1, 2):
-        config = SolverConfig.fast(polish_margin=margin, polish_starts=5, polish_rounds=2,
+        config = SolverConfig.fast().replace(polish_margin=margin, polish_starts=5, polish_rounds=2,
                                    parallel_rows=7, pair_budget=123_456, solve_threads=threads,
                                    **BUCKETS)
         solver = NlpSolver(CONFIG, config, SMALL)
@@ -341,8 +344,8 @@ def test_polishing_ahead_on_the_idle_thread_gives_the_same_plan(monkeypatch, met
     knobs = dict(n_spread=2, max_iter=4, n_screen=16, n_solved=3, solve_threads=2,
                  polish_rounds=4, polish_margin=np.inf, **BUCKETS)   # solves stopped short
     make = SolverConfig.fast if method == "newton" else SolverConfig
-    ahead = NlpSolver(CONFIG, make(**knobs), SMALL)
-    after = NlpSolver(CONFIG, make(polish_ahead=False, **knobs), SMALL)
+    ahead = NlpSolver(CONFIG, make().replace(**knobs), SMALL)
+    after = NlpSolver(CONFIG, make().replace(polish_ahead=False, **knobs), SMALL)
     polished = 0
     for state, world, goal in demo_cycles(CONFIG, 4, seed=0, n_samples=64):
         cycle = Cycle.prepare(state, world, goal, CONFIG)
@@ -399,8 +402,8 @@ def test_screening_while_the_warm_start_solves_gives_the_same_plan(monkeypatch, 
     knobs = dict(n_spread=2, max_iter=4, n_screen=32, n_solved=3, solve_threads=2,
                  **BUCKETS)
     make = SolverConfig.fast if method == "newton" else SolverConfig
-    ahead = NlpSolver(CONFIG, make(**knobs), SMALL)
-    first = NlpSolver(CONFIG, make(screen_ahead=False, **knobs), SMALL)
+    ahead = NlpSolver(CONFIG, make().replace(**knobs), SMALL)
+    first = NlpSolver(CONFIG, make().replace(screen_ahead=False, **knobs), SMALL)
     orders, previous = [], None
     for state, world, goal in demo_cycles(CONFIG, 4, seed=0, n_samples=64):
         cycle = Cycle.prepare(state, world, goal, CONFIG)
@@ -428,7 +431,7 @@ def test_the_screen_keeps_both_cores_unless_a_solve_runs_beside_it(monkeypatch, 
     method's Python loop (here with the difference Hessian) lists its starts first, and then
     the screen has both cores."""
     make = SolverConfig.fast if method == "newton" else SolverConfig
-    solver = NlpSolver(CONFIG, make(n_spread=2, max_iter=3, n_screen=32, n_solved=2,
+    solver = NlpSolver(CONFIG, make().replace(n_spread=2, max_iter=3, n_screen=32, n_solved=2,
                                     solve_threads=2, polish_rounds=0, hessian=hessian,
                                     **BUCKETS), SMALL)
     state, world, goal = _demo_cycle()
@@ -448,8 +451,8 @@ def test_both_solvers_lower_the_smooth_cost_from_their_start(hessian):
     problem = solvers.problem(CONFIG, SMALL, SolverConfig())
     problem.bind(problem.pack(cycle))
     z0 = np.array([2.0, 0.3, -0.2, 0.6])
-    for config in (SolverConfig(hessian=hessian, max_iter=15),
-                   SolverConfig.fast(hessian=hessian, max_iter=15)):
+    for config in (SolverConfig().replace(hessian=hessian, max_iter=15),
+                   SolverConfig.fast().replace(hessian=hessian, max_iter=15)):
         result = solvers.make_solver(config).solve(problem, z0)
         assert result.success and np.all(np.isfinite(result.x))
         assert result.fun <= problem.f(z0) + 1e-9
@@ -478,8 +481,8 @@ def test_the_final_polish_shares_its_walks_over_the_threads_and_ends_the_same(mo
         _compile_afresh(monkeypatch)
     knobs = dict(n_spread=2, max_iter=4, n_screen=16, n_solved=3, polish_ahead=False,
                  polish_starts=4, polish_rounds=4, polish_margin=np.inf, **BUCKETS)
-    shared = NlpSolver(CONFIG, SolverConfig(solve_threads=2, **knobs), SMALL)
-    alone = NlpSolver(CONFIG, SolverConfig(solve_threads=1, **knobs), SMALL)
+    shared = NlpSolver(CONFIG, SolverConfig().replace(solve_threads=2, **knobs), SMALL)
+    alone = NlpSolver(CONFIG, SolverConfig().replace(solve_threads=1, **knobs), SMALL)
     for state, world, goal in demo_cycles(CONFIG, 3, seed=0, n_samples=64):
         cycle = Cycle.prepare(state, world, goal, CONFIG)
         starts = structured_starts(state, goal, CONFIG)

@@ -108,11 +108,11 @@ def test_a_world_from_an_array_does_not_print_the_array():
     ({"no_such_thing": 1}, "not a CasADi nlpsol option"),
 ])
 def test_bad_ipopt_options_fail_when_the_planner_is_built(options, words):
-    with pytest.raises(InputError, match="SolverConfig.options") as info:
-        Planner(PlannerConfig(), SolverConfig(options=options))
+    with pytest.raises(InputError, match="SolverConfig.local.options") as info:
+        Planner(PlannerConfig(), SolverConfig().replace(options=options))
     assert words in str(info.value)
 
 
 def test_good_ipopt_options_build():
-    planner = Planner(PlannerConfig(), SolverConfig(options={"ipopt.max_iter": 7}))
-    assert planner.solver.options == (("ipopt.max_iter", 7),)
+    planner = Planner(PlannerConfig(), SolverConfig().replace(options={"ipopt.max_iter": 7}))
+    assert planner.solver.local.options == (("ipopt.max_iter", 7),)

@@ -225,7 +225,7 @@ def test_problem_binds_the_settings_and_the_difference_steps():
     problem = Problem(other, SIZES, SolverConfig())
     p = problem.pack(cycle)
     assert p.size == problem.n_params
-    np.testing.assert_array_equal(p[-4:], SolverConfig().fd_step
+    np.testing.assert_array_equal(p[-4:], SolverConfig().local.fd_step
                                   * (np.array(other.z_upper) - np.array(other.z_lower)))
     problem.bind(p)
     z = np.array([2.0, 0.1, -0.2, 0.6])

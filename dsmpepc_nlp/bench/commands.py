@@ -26,7 +26,7 @@ from ..core.config import VARIANTS
 from ..core.errors import InputError
 from ..core.jsonio import json_clean
 from ..core.progress import EpisodeProgress, say
-from ..core.solver_config import SOLVER_NAMES, SolverConfig
+from ..core.solver_config import SOLVER_NAMES, LocalSolverSettings, SolverConfig
 from ..sim.scenario import load_scenario
 from ..sim.simulate import simulate
 from ..viz import figures
@@ -109,10 +109,11 @@ def add_bench(p) -> None:
 
 def run_timing(args) -> int:
     solver_config("nlp")
-    default = SolverConfig(options=parse_ipopt_options(args.ipopt_option))
+    options = parse_ipopt_options(args.ipopt_option)
+    default = SolverConfig(local=LocalSolverSettings(options=options))
     say(f"[bench] timing {args.cycles} cycles of the crowded demo scene")
     result = run_bench(n_cycles=args.cycles, seed=args.seed, default=default)
-    result["ipopt_options"] = dict(default.options)
+    result["ipopt_options"] = dict(default.local.options)
     if args.json:
         print(json.dumps(json_clean(result), allow_nan=False))
     else:

@@ -1,9 +1,15 @@
-"""How a plan is searched for: the solver's configuration (the NLP plugin and its options, the
-multistart, the polish, the sampler), and the solver names, in one place."""
+"""How a plan is searched for: the solver's configuration, one settings object per concern (the
+local solver, the multistart, the polish, the parallelism), and the solver names, in one place.
+
+``SolverConfig()`` is IPOPT, ``SolverConfig.fast()`` the fast NLP configuration,
+``SolverConfig.sampling()`` the batched exact-cost sampler alone; a concern is changed by giving
+its settings, e.g. ``SolverConfig(multistart=MultistartSettings(n_screen=64))``.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import dataclasses
+from dataclasses import dataclass, field
 
 from .errors import InputError
 from .validation import fail, validate_fields
@@ -14,87 +20,77 @@ SOLVER_METHODS = ("ipopt", "newton", "sampling")
 SOLVER_NAMES = ("nlp", "fast", "sampling")
 """The solvers by name, as on the command line (:meth:`SolverConfig.named`): the one list."""
 
+HESSIANS = ("differences", "exact", "quasi-newton")
+
+
+def _integers(owner: str, instance, lows: dict) -> None:
+    for name, low in lows.items():
+        value = getattr(instance, name)
+        if isinstance(value, bool) or not isinstance(value, int) or value < low:
+            fail(owner, name, value, f"an integer >= {low}")
+
+
+def _booleans(owner: str, instance, names) -> None:
+    for name in names:
+        if not isinstance(getattr(instance, name), bool):
+            fail(owner, name, getattr(instance, name), "True or False")
+
 
 @dataclass(frozen=True)
-class SolverConfig:
-    """How a plan is searched for: the NLP plugin and its options, or the sampling planner.
+class LocalSolverSettings:
+    """The local solver each start runs: IPOPT (CasADi ``nlpsol``) or our trust-region Newton
+    method, and its Hessian."""
 
-    ``SolverConfig()`` is IPOPT (default), ``SolverConfig.fast()`` the fast NLP configuration,
-    ``SolverConfig.sampling()`` the batched exact-cost sampler alone.
-    """
-
-    method: str = "ipopt"
-    """``ipopt`` (CasADi ``nlpsol`` on the compiled graph), ``newton`` (our trust-region Newton
-    on the 4-D box over the same compiled graph) or ``sampling``."""
     max_iter: int = 40
     """Iteration limit per start."""
     tol: float = 1e-5
-    """Convergence tolerance passed to the plugin."""
+    """Convergence tolerance passed to the plugin (``newton``: the predicted decrease counted
+    as converged)."""
     options: tuple = ()
     """Extra ``(key, value)`` pairs for ``casadi.nlpsol`` (plugin options as ``"ipopt.key"``)."""
+    hessian: str = "quasi-newton"
+    """The Hessian the solvers use: ``quasi-newton`` (gradients only: IPOPT's limited-memory
+    update; for ``newton`` symmetric rank-one updates started from the differences),
+    ``differences`` of the compiled gradient (4 more gradients per Hessian) or ``exact``
+    (compiled forward over reverse; minutes to compile, no faster than the differences)."""
+    fd_step: float = 1e-6
+    """Forward-difference step of the Hessian of the gradient, as a share of each variable's
+    range (``hessian="differences"``)."""
+    trust_radius: float = 0.25
+    """Initial trust radius of ``newton``, as a share of each variable's range."""
+
+    def __post_init__(self):
+        _integers("LocalSolverSettings", self, {"max_iter": 1})
+        positive = dict(low=0.0, low_open=True)
+        validate_fields(self, {"tol": positive, "fd_step": positive,
+                               "trust_radius": dict(low=0.0, low_open=True, high=1.0)})
+        if self.hessian not in HESSIANS:
+            fail("LocalSolverSettings", "hessian", self.hessian, " or ".join(map(repr, HESSIANS)))
+        try:
+            options = tuple((str(k), v) for k, v in
+                            (self.options.items() if isinstance(self.options, dict)
+                             else self.options))
+        except (TypeError, ValueError):
+            fail("LocalSolverSettings", "options", self.options,
+                 "a dict or sequence of (key, value)")
+        object.__setattr__(self, "options", options)
+
+
+@dataclass(frozen=True)
+class MultistartSettings:
+    """Where the solves start: the named starts' shapes, the starts spread over the box, the
+    screen that costs them all exactly, and how many the solver runs from."""
+
     n_spread: int = 4
     """Starts spread over the z box in addition to the structured ones."""
-    n_samples: int = 4096
-    """Samples of z for the sampling planner (low-discrepancy)."""
-    seed: int = 0
-    """Seed of the low-discrepancy sequence and of the spread starts."""
-    pair_budget: int = 2_000_000
-    """Largest (trajectory, pose, footprint circle, obstacle circle) count the numpy exact cost
-    handles in one chunk: keeps its temporaries near 100 MB however crowded the world."""
-    parallel_rows: int = 64
-    """Smallest batch the compiled exact evaluator spreads over every core; smaller batches run
-    on the calling thread, where waking the thread pool would cost more than it saves."""
     n_screen: int = 256
     """Low-discrepancy z costed exactly with the named starts before any solve (the landscape
     is multimodal: the NLP only runs from the best of them)."""
     n_solved: int = 3
     """Starts the NLP runs from (the warm start, then the best distinct others); fewer lost
     BARN worlds (docs/nlp.md, "Pass 8")."""
-    solve_threads: int = 2
-    """Threads the solves of one plan run on at once (IPOPT: each with its own ``nlpsol``,
-    which releases Python's lock while it runs; ``newton``: its compiled loop, which does too);
-    1 runs them one after another. Every solve is the same whatever the count; only the
-    plan's wall time changes. Two is this project's 2-core reference machine."""
     distinct: float = 0.05
     """Two starts closer than this share of the box (max norm) count as one."""
-    fd_step: float = 1e-6
-    """Forward-difference step of the Hessian of the gradient, as a share of each variable's
-    range (``hessian="differences"``)."""
-    hessian: str = "quasi-newton"
-    """The Hessian the solvers use: ``quasi-newton`` (gradients only: IPOPT's limited-memory
-    update; for ``newton`` symmetric rank-one updates started from the differences),
-    ``differences`` of the compiled gradient (4 more gradients per Hessian) or ``exact``
-    (compiled forward over reverse; minutes to compile, no faster than the differences)."""
-    pose_object_buckets: tuple = (0, 4, 12)
-    """Object counts the graph is compiled for at every pose; a cycle uses the smallest that
-    holds the objects in its reach (the largest when none does). Each is compiled on first
-    use and cached."""
-    polish_rounds: int = 8
-    """Rounds of the exact-cost polish after the solves: the best candidate's 24 neighbours
-    (a step of ``polish_step`` along one variable, or along all four at once; share of each
-    range) are costed exactly and the best kept, then the step halves; 0 turns it off
-    (docs/nlp.md, "Pass 6")."""
-    polish_step: float = 0.04
-    """First step of the polish, as a share of each variable's range."""
-    polish_starts: int = 5
-    """Best distinct candidates (solved or screened, by exact cost) the polish starts from."""
-    polish_margin: float = 1.0
-    """Candidates whose exact cost trails the best one's by more than this are not polished
-    (``inf``: every one of the ``polish_starts``): no polish gain measured ever came near it
-    (docs/nlp.md, "Pass 6")."""
-    polish_ahead: bool = True
-    """Polish on the thread the solves leave idle: three solves on two threads end with one
-    thread waiting for the last solve, and there it walks from the seeds known so far (the
-    screened starts and the finished solves). The final polish continues those walks whose
-    seed is still a seed. Every walk is the same wherever it runs, so the plan is the same
-    either way (held by a test); only the wall time changes."""
-    screen_ahead: bool = True
-    """Solve from the warm start at once, while a second thread costs the other starts
-    exactly (the screen): the warm start is solved whatever the screen finds, and the solves
-    from the best other starts follow it (with ``solve_threads`` above 1). Every solve and
-    record is the same either way (held by a test); only the wall time changes."""
-    trust_radius: float = 0.25
-    """Initial trust radius of ``newton``, as a share of each variable's range."""
     soft_turn: float = 0.6
     """|delta| of the soft-turn starts, rad (about a third of the box)."""
     hard_turn: float = 1.5
@@ -103,29 +99,94 @@ class SolverConfig:
     """Target distance r of the turn starts, m."""
 
     def __post_init__(self):
+        _integers("MultistartSettings", self, {"n_spread": 0, "n_screen": 0, "n_solved": 1})
+        validate_fields(self, {"distinct": dict(low=0.0, high=1.0),
+                               "soft_turn": dict(low=0.0), "hard_turn": dict(low=0.0),
+                               "turn_distance": dict(low=0.0, low_open=True)})
+
+
+@dataclass(frozen=True)
+class PolishSettings:
+    """The exact-cost polish after the solves (``solve/polish.py``)."""
+
+    rounds: int = 8
+    """Rounds of the pattern search: the best candidate's 24 neighbours (a step of ``step``
+    along one variable, or along all four at once; share of each range) are costed exactly and
+    the best kept, then the step halves; 0 turns the polish off (docs/nlp.md, "Pass 6")."""
+    step: float = 0.04
+    """First step, as a share of each variable's range."""
+    starts: int = 5
+    """Best distinct candidates (solved or screened, by exact cost) the polish starts from."""
+    margin: float = 1.0
+    """Candidates whose exact cost trails the best one's by more than this are not polished
+    (``inf``: every one of the ``starts``): no polish gain measured ever came near it
+    (docs/nlp.md, "Pass 6")."""
+
+    def __post_init__(self):
+        _integers("PolishSettings", self, {"rounds": 0, "starts": 1})
+        validate_fields(self, {"step": dict(low=0.0, high=1.0),
+                               "margin": dict(low=0.0, allow_inf=True)})
+
+
+@dataclass(frozen=True)
+class ParallelSettings:
+    """How a plan uses the cores. Every solve, walk and cost is the same whatever these are
+    (held by tests); only the plan's wall time changes."""
+
+    solve_threads: int = 2
+    """Threads the solves of one plan run on at once (IPOPT: each with its own ``nlpsol``,
+    which releases Python's lock while it runs; ``newton``: its compiled loop, which does too);
+    1 runs them one after another. Two is this project's 2-core reference machine."""
+    parallel_rows: int = 64
+    """Smallest batch the compiled exact evaluator spreads over every core; smaller batches run
+    on the calling thread, where waking the thread pool would cost more than it saves."""
+    pair_budget: int = 2_000_000
+    """Largest (trajectory, pose, footprint circle, obstacle circle) count the numpy exact cost
+    handles in one chunk: keeps its temporaries near 100 MB however crowded the world."""
+    screen_ahead: bool = True
+    """Solve from the warm start at once, while a second thread costs the other starts
+    exactly (the screen): the warm start is solved whatever the screen finds, and the solves
+    from the best other starts follow it (with ``solve_threads`` above 1)."""
+    polish_ahead: bool = True
+    """Polish on the thread the solves leave idle: three solves on two threads end with one
+    thread waiting for the last solve, and there it walks from the seeds known so far. The
+    final polish continues those walks whose seed is still a seed."""
+
+    def __post_init__(self):
+        _integers("ParallelSettings", self, {"solve_threads": 1, "parallel_rows": 1,
+                                             "pair_budget": 1})
+        _booleans("ParallelSettings", self, ("screen_ahead", "polish_ahead"))
+
+
+@dataclass(frozen=True)
+class SolverConfig:
+    """How a plan is searched for: the method, the settings of each concern, the sampler's
+    size and the seed both draw from, and the object buckets the graph is compiled for."""
+
+    method: str = "ipopt"
+    """``ipopt`` (CasADi ``nlpsol`` on the compiled graph), ``newton`` (our trust-region Newton
+    on the 4-D box over the same compiled graph) or ``sampling``."""
+    local: LocalSolverSettings = field(default_factory=LocalSolverSettings)
+    multistart: MultistartSettings = field(default_factory=MultistartSettings)
+    polish: PolishSettings = field(default_factory=PolishSettings)
+    parallel: ParallelSettings = field(default_factory=ParallelSettings)
+    n_samples: int = 4096
+    """Samples of z for the sampling planner (low-discrepancy)."""
+    seed: int = 0
+    """Seed of the low-discrepancy sequences (the sampler's, the spread and screen starts)."""
+    pose_object_buckets: tuple = (0, 4, 12)
+    """Object counts the graph is compiled for at every pose; a cycle uses the smallest that
+    holds the objects in its reach (the largest when none does). Each is compiled on first
+    use and cached."""
+
+    def __post_init__(self):
         if self.method not in SOLVER_METHODS:
             fail("SolverConfig", "method", self.method, f"one of {', '.join(SOLVER_METHODS)}")
-        for name, low in (("max_iter", 1), ("n_spread", 0), ("n_samples", 1), ("seed", 0),
-                          ("pair_budget", 1), ("parallel_rows", 1),
-                          ("n_screen", 0), ("n_solved", 1), ("solve_threads", 1),
-                          ("polish_rounds", 0),
-                          ("polish_starts", 1)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                fail("SolverConfig", name, value, f"an integer >= {low}")
-        positive = dict(low=0.0, low_open=True)
-        validate_fields(self, {"tol": positive, "distinct": dict(low=0.0, high=1.0),
-                                "fd_step": positive, "polish_step": dict(low=0.0, high=1.0),
-                                "polish_margin": dict(low=0.0, allow_inf=True),
-                                "trust_radius": dict(low=0.0, low_open=True, high=1.0),
-                                "soft_turn": dict(low=0.0), "hard_turn": dict(low=0.0),
-                                "turn_distance": positive})
-        for name in ("polish_ahead", "screen_ahead"):
-            if not isinstance(getattr(self, name), bool):
-                fail("SolverConfig", name, getattr(self, name), "True or False")
-        hessians = ("differences", "exact", "quasi-newton")
-        if self.hessian not in hessians:
-            fail("SolverConfig", "hessian", self.hessian, " or ".join(map(repr, hessians)))
+        _integers("SolverConfig", self, {"n_samples": 1, "seed": 0})
+        for name, kind in (("local", LocalSolverSettings), ("multistart", MultistartSettings),
+                           ("polish", PolishSettings), ("parallel", ParallelSettings)):
+            if not isinstance(getattr(self, name), kind):
+                fail("SolverConfig", name, getattr(self, name), f"a {kind.__name__}")
         try:
             buckets = tuple(sorted({int(b) for b in self.pose_object_buckets}))
         except (TypeError, ValueError):
@@ -133,27 +194,20 @@ class SolverConfig:
         if not buckets or buckets[0] < 0 or any(
                 isinstance(b, bool) or b != int(b) for b in self.pose_object_buckets):
             fail("SolverConfig", "pose_object_buckets", self.pose_object_buckets,
-                  "a non-empty sequence of integers >= 0")
+                 "a non-empty sequence of integers >= 0")
         object.__setattr__(self, "pose_object_buckets", buckets)
-        try:
-            options = tuple((str(k), v) for k, v in
-                            (self.options.items() if isinstance(self.options, dict)
-                             else self.options))
-        except (TypeError, ValueError):
-            fail("SolverConfig", "options", self.options, "a dict or sequence of (key, value)")
-        object.__setattr__(self, "options", options)
 
     @classmethod
     def fast(cls, **changes) -> SolverConfig:
         """Trust-region Newton on the 4-D box: exact box-QP step, quasi-Newton (SR1) Hessian.
 
-        On 4 variables it needs no barrier and no per-call ``nlpsol`` overhead; ``tol`` is the
-        predicted decrease counted as converged (1e-3, against the 0.01 cost tolerance). The
-        exact polish starts from the 3 best candidates instead of 5: two fifths of the polish
-        saved for about the same plans (docs/nlp.md, "Pass 6").
+        On 4 variables it needs no barrier and no per-call ``nlpsol`` overhead; its ``tol`` is
+        the predicted decrease counted as converged (1e-3, against the 0.01 cost tolerance). The
+        polish starts from the 3 best candidates instead of 5: two fifths of the polish saved
+        for about the same plans (docs/nlp.md, "Pass 6"). ``changes`` replace whole settings.
         """
-        changes.setdefault("tol", 1e-3)
-        changes.setdefault("polish_starts", 3)
+        changes.setdefault("local", LocalSolverSettings(tol=1e-3))
+        changes.setdefault("polish", PolishSettings(starts=3))
         return cls(method="newton", **changes)
 
     @classmethod
@@ -168,3 +222,30 @@ class SolverConfig:
         if name not in makers:
             raise InputError(f"solver = {name!r}: must be one of {', '.join(makers)}")
         return makers[name]()
+
+    def replace(self, **changes) -> SolverConfig:
+        """This configuration with fields of its settings changed, by name: ``max_iter=4``
+        changes ``local.max_iter``, ``n_screen=16`` ``multistart.n_screen``, ``polish_rounds=2``
+        ``polish.rounds``; top-level fields (``method``, ``n_samples``, ``seed``, a whole
+        settings object) as they are. An unknown name is an InputError."""
+        top, parts = {}, {}
+        for name, value in changes.items():
+            section, inner = _SECTION_OF.get(name, (None, name))
+            if section is None:
+                if name not in {f.name for f in dataclasses.fields(self)}:
+                    raise InputError(f"SolverConfig has no field {name!r}")
+                top[name] = value
+            else:
+                parts.setdefault(section, {})[inner] = value
+        for section, values in parts.items():
+            top[section] = dataclasses.replace(top.get(section, getattr(self, section)), **values)
+        return dataclasses.replace(self, **top)
+
+
+_SECTION_OF = {
+    **{f.name: ("local", f.name) for f in dataclasses.fields(LocalSolverSettings)},
+    **{f.name: ("multistart", f.name) for f in dataclasses.fields(MultistartSettings)},
+    **{f"polish_{f.name}": ("polish", f.name) for f in dataclasses.fields(PolishSettings)},
+    **{f.name: ("parallel", f.name) for f in dataclasses.fields(ParallelSettings)},
+}
+"""Each settings field's flat name for :meth:`SolverConfig.replace` (the polish's prefixed)."""

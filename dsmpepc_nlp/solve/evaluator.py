@@ -23,7 +23,7 @@ import numpy as np
 
 from ..core.control_law import Trajectory, rollout
 from ..core.exact_cost import CostBreakdown, evaluate
-from ..core.solver_config import SolverConfig
+from ..core.solver_config import ParallelSettings, SolverConfig
 from . import exact
 from .cycle import Cycle
 
@@ -49,15 +49,15 @@ class Evaluation:
 
 
 def evaluate_batch(z, cycle: Cycle, compiled: bool | None = None,
-                   pair_budget: int = SolverConfig.pair_budget,
-                   parallel_rows: int = SolverConfig.parallel_rows) -> Evaluation:
+                   pair_budget: int = ParallelSettings.pair_budget,
+                   parallel_rows: int = ParallelSettings.parallel_rows) -> Evaluation:
     """Roll out and cost every row of ``z`` (n, 4) exactly, once: the engines behind
     :class:`Evaluator` (which a plan uses; this function keeps nothing).
 
     ``compiled`` (default: when available) runs the compiled kernel on the cycle's arrays;
     False runs the numpy reference in chunks of at most ``pair_budget`` (trajectory, pose,
-    footprint circle, obstacle circle) tuples (:attr:`SolverConfig.pair_budget`); the kernel
-    uses every core from ``parallel_rows`` rows on (:attr:`SolverConfig.parallel_rows`).
+    footprint circle, obstacle circle) tuples (:attr:`ParallelSettings.pair_budget`); the kernel
+    uses every core from ``parallel_rows`` rows on (:attr:`ParallelSettings.parallel_rows`).
     """
     return _Batch.cost(_as_batch(z), cycle, compiled, pair_budget, parallel_rows).evaluation()
 
@@ -88,7 +88,8 @@ class Evaluator:
                  compiled: bool | None = None):
         solver = SolverConfig() if solver is None else solver
         self.cycle = cycle
-        self.parallel_rows, self.pair_budget = solver.parallel_rows, solver.pair_budget
+        self.parallel_rows = solver.parallel.parallel_rows
+        self.pair_budget = solver.parallel.pair_budget
         self.compiled = compiled
         self.rows_costed = self.read_back = 0
         self.batches = []

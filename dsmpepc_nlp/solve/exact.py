@@ -197,7 +197,7 @@ def kernel_pass(z, cycle, module, parallel_rows: int = 64) -> tuple:
     """The kernel's outputs for ``z`` (n, 4): ``(z, poses, v, omega, target, survival, out)``
     (``out``: the columns ``module.OUT``). Batches of at least ``parallel_rows`` rows use
     every core, smaller ones the calling thread
-    (:attr:`~dsmpepc_nlp.core.solver_config.SolverConfig.parallel_rows`).
+    (:attr:`~dsmpepc_nlp.core.solver_config.ParallelSettings.parallel_rows`).
 
     Rollouts the kernel marks fragile (passing a discontinuity of the law, see
     ``kernel.layout.FRAGILE_ANGLE``) are redone with the numpy reference and costed again, so

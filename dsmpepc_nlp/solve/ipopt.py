@@ -33,7 +33,7 @@ cost like any other candidate."""
 def ipopt_options(solver: SolverConfig, warm: bool) -> dict:
     """``casadi.nlpsol`` options for IPOPT from a SolverConfig (``options`` override)."""
     options = dict(_QUIET_IPOPT)
-    options.update({"ipopt.max_iter": solver.max_iter, "ipopt.tol": solver.tol,
+    options.update({"ipopt.max_iter": solver.local.max_iter, "ipopt.tol": solver.local.tol,
                     # The bilinear tables' gradient jumps at cell edges: the dual residual
                     # stalls near 0.1 when the objective has converged (docs/nlp.md), so
                     # "acceptable" is judged by the objective's change alone.
@@ -55,14 +55,14 @@ def ipopt_options(solver: SolverConfig, warm: bool) -> dict:
                     # system instead of by Sherman-Morrison backsolves: the same steps to
                     # rounding, ~2 ms less of IPOPT's own time per solve (docs/nlp.md, "Pass 5").
                     "ipopt.limited_memory_aug_solver": "extended"})
-    if solver.hessian == "quasi-newton":
+    if solver.local.hessian == "quasi-newton":
         options["ipopt.hessian_approximation"] = "limited-memory"
     if warm:
         options.update({"ipopt.warm_start_init_point": "yes",
                         "ipopt.warm_start_bound_push": 1e-6,
                         "ipopt.warm_start_mult_bound_push": 1e-6,
                         "ipopt.mu_init": 1e-4})
-    options.update(dict(solver.options))
+    options.update(dict(solver.local.options))
     return options
 
 
@@ -85,7 +85,7 @@ class IpoptSolver:
     def solve_many(self, problem: Problem, starts, idle=None, more=None) -> list:
         """:meth:`solve` from every ``(z0, lam_x)`` of ``starts``, in their order.
 
-        With ``SolverConfig.solve_threads`` above 1 the solves run at once on that many
+        With ``ParallelSettings.solve_threads`` above 1 the solves run at once on that many
         threads (each thread slot its own ``nlpsol``; CasADi lets go of Python's lock while
         IPOPT runs); each start is solved exactly as it would be alone.
 
@@ -95,8 +95,8 @@ class IpoptSolver:
         solves (:func:`.threads.run_starts`).
         """
         starts = list(starts)
-        slots = self.solver.solve_threads if more is not None else \
-            min(self.solver.solve_threads, len(starts))
+        threads = self.solver.parallel.solve_threads
+        slots = threads if more is not None else min(threads, len(starts))
         variants = {False, True} if more is not None else \
             {lam_x is not None for _, lam_x in starts}
         for slot in range(slots if slots > 1 else 0):   # built here, not in the threads:
@@ -164,7 +164,7 @@ def _build_ipopt(problem: Problem, solver: SolverConfig, warm: bool):
     options = ipopt_options(solver, warm)
     options["grad_f"] = ca.Function("grad_f", [z, p], [value, gradient], ["x", "p"],
                                     ["f", "grad_f_x"])
-    if solver.hessian != "quasi-newton":
+    if solver.local.hessian != "quasi-newton":
         options["hess_lag"] = ca.Function("hess_lag", [z, p, lam_f, lam_g],
                                           [ca.triu(lam_f * call("H")[2])],
                                           ["x", "p", "lam_f", "lam_g"],
@@ -173,22 +173,24 @@ def _build_ipopt(problem: Problem, solver: SolverConfig, warm: bool):
     try:
         return ca.nlpsol("dsmpepc_warm" if warm else "dsmpepc_cold", "ipopt", nlp, options)
     except RuntimeError as error:
-        raise InputError(f"SolverConfig.options = {solver.options!r}: CasADi could not build "
+        raise InputError(f"SolverConfig.local.options = {solver.local.options!r}: CasADi could "
+                         "not build "
                          f"IPOPT ({str(error).splitlines()[-1]})") from None
 
 
 def check_options(solver: SolverConfig) -> None:
-    """Raise :class:`InputError` when ``solver.options`` would not build IPOPT.
+    """Raise :class:`InputError` when ``solver.local.options`` would not build IPOPT.
 
     Each user option is tried alone on a one-variable ``nlpsol`` (about a millisecond each;
     nothing is tried without options), so the message names the option at fault, with the
     names it was probably meant to be: an IPOPT option written without its ``ipopt.`` prefix,
     an unknown name, or a value IPOPT refuses.
     """
-    for key, value in solver.options:
+    for key, value in solver.local.options:
         error = _trial_error({key: value})
         if error is not None:
-            raise InputError(f"SolverConfig.options[{key!r}] = {value!r}: {_explain(key, error)}")
+            raise InputError(f"SolverConfig.local.options[{key!r}] = {value!r}: "
+                             f"{_explain(key, error)}")
 
 
 def _trial_error(options: dict) -> str | None:

@@ -75,14 +75,15 @@ class NlpSolver:
         self.config = config
         self.solver_config = SolverConfig() if solver is None else solver
         self.sizes = GraphSizes() if sizes is None else sizes
-        self.n_solved = self.solver_config.n_solved
+        self.n_solved = self.solver_config.multistart.n_solved
         self.lower = np.array(config.z_lower, dtype=float)
         self.upper = np.array(config.z_upper, dtype=float)
         self.span = self.upper - self.lower
         self.polish = Polish(self.solver_config, self.lower, self.upper)
         self._solver = solvers.make_solver(self.solver_config)
-        self.spread = box_samples(config, self.solver_config.n_spread, self.solver_config.seed)
-        self.screen = box_samples(config, self.solver_config.n_screen,
+        starts = self.solver_config.multistart
+        self.spread = box_samples(config, starts.n_spread, self.solver_config.seed)
+        self.screen = box_samples(config, starts.n_screen,
                                   self.solver_config.seed + 1)
         # The box starts are the same every cycle: named and stacked once.
         self._box_starts = ([(f"spread-{i}", z) for i, z in enumerate(self.spread)]
@@ -214,7 +215,8 @@ class NlpSolver:
         # takes the best distinct others: every solve and record is the same, earlier.
         first = [i for i, (name, _) in enumerate(named) if name == "warm"]
         more = None
-        if first and self.solver_config.screen_ahead and self.solver_config.solve_threads > 1:
+        parallel = self.solver_config.parallel
+        if first and parallel.screen_ahead and parallel.solve_threads > 1:
             def more(busy):     # on one core while the warm start solves on the other
                 screen(one_thread=busy)
                 return [named[i] for i in chosen[1:]]
@@ -224,7 +226,7 @@ class NlpSolver:
         best_cost, best_lam = math.inf, None
         walks = {}
         idle = None
-        if self.solver_config.polish_ahead and not self.kernel_loading:
+        if parallel.polish_ahead and not self.kernel_loading:
             def idle(done, busy):       # called once the screen is done (threads.run_starts)
                 ahead = list(listed())
                 for index, result in done.items():

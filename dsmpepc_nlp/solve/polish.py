@@ -52,8 +52,7 @@ class Polish:
     Parameters
     ----------
     solver : SolverConfig
-        ``polish_rounds``, ``polish_step``, ``polish_starts``, ``polish_margin``,
-        ``distinct`` and ``solve_threads``.
+        Its ``polish`` settings, ``multistart.distinct`` and ``parallel.solve_threads``.
     lower, upper : ndarray, (4,)
         The z box.
 
@@ -65,17 +64,17 @@ class Polish:
     """
 
     def __init__(self, solver: SolverConfig, lower, upper):
-        self.solver = solver
+        self.solver, self.settings = solver, solver.polish
         self.lower, self.upper = np.asarray(lower, float), np.asarray(upper, float)
         self.span = self.upper - self.lower
-        self.first_step = solver.polish_step * self.span
+        self.first_step = solver.polish.step * self.span
         self.last = {"ahead_rounds": 0, "threads": []}
         self._lock = threading.Lock()
 
     def distinct(self, a, b) -> bool:
-        """True when two z differ by more than ``SolverConfig.distinct`` of the box (max
+        """True when two z differ by more than ``MultistartSettings.distinct`` of the box (max
         norm): the starts solved from and the polish's seeds are kept that far apart."""
-        return bool(np.max(np.abs(a - b) / self.span) > self.solver.distinct)
+        return bool(np.max(np.abs(a - b) / self.span) > self.solver.multistart.distinct)
 
     def seeds(self, records) -> tuple:
         """``(seeds, best)``: the best distinct candidates the polish starts from, cheapest
@@ -87,8 +86,8 @@ class Polish:
             return [], math.inf
         seeds = []
         for record in finite:       # cheapest first
-            if (len(seeds) == self.solver.polish_starts
-                    or record.exact_cost > finite[0].exact_cost + self.solver.polish_margin):
+            if (len(seeds) == self.settings.starts
+                    or record.exact_cost > finite[0].exact_cost + self.settings.margin):
                 break
             if all(self.distinct(record.z, s.z) for s in seeds):
                 seeds.append(record)
@@ -124,7 +123,7 @@ class Polish:
         seeds, _ = self.seeds(records)
         for seed in seeds:
             walk = self.walk(seed, walks)
-            while walk.rounds < self.solver.polish_rounds:
+            while walk.rounds < self.settings.rounds:
                 if not busy():
                     return
                 self.round([walk], evaluator, one_thread=True)
@@ -134,7 +133,7 @@ class Polish:
         """The polish of ``records``: every seed's walk to ``polish_rounds`` (continuing the
         walks run ahead where their seed is still a seed); the record ``polish`` of the best
         walk, or None when it finds nothing better than every candidate (or is off)."""
-        rounds = self.solver.polish_rounds
+        rounds = self.settings.rounds
         seeds, best = self.seeds(records)
         if rounds == 0 or not seeds:
             return None
@@ -155,9 +154,9 @@ class Polish:
         the least loaded thread), each thread running its own walks' rounds on its core: a
         round of 24 rows is too small to share one batch over the cores (docs/nlp.md,
         "Pass 7"), two walks side by side are not."""
-        rounds = self.solver.polish_rounds
+        rounds = self.settings.rounds
         left = [w for w in walks if w.rounds < rounds]
-        n_threads = min(self.solver.solve_threads, len(left))
+        n_threads = min(self.solver.parallel.solve_threads, len(left))
         if n_threads <= 1:
             self._walk_to_the_end(left, evaluator)
             return
@@ -182,7 +181,7 @@ class Polish:
             with self._lock:
                 self.last["threads"].append((threading.current_thread().name, len(walks)))
         while True:
-            active = [w for w in walks if w.rounds < self.solver.polish_rounds]
+            active = [w for w in walks if w.rounds < self.settings.rounds]
             if not active:
                 return
             self.round(active, evaluator, one_thread)

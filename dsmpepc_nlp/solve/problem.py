@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.config import PlannerConfig
-from ..core.solver_config import SolverConfig
+from ..core.solver_config import LocalSolverSettings, SolverConfig
 from . import background, compiled, graph, settings
 from .cache import compile_enabled
 
@@ -78,8 +78,8 @@ class Problem:
         self.upper = np.array(config.z_upper, dtype=float)
         # The difference steps follow the box, a setting: parameters, like the configuration's
         # numbers (the ``settings`` block), so the library is keyed by structure alone.
-        self.steps = solver.fd_step * (self.upper - self.lower)
-        hessian = "exact" if solver.hessian == "exact" else "differences"
+        self.steps = solver.local.fd_step * (self.upper - self.lower)
+        hessian = "exact" if solver.local.hessian == "exact" else "differences"
         self.functions = compiled.load_or_compile(lambda: graph.flat_cost(config, sizes), None,
                                         structure_key(config, sizes), hessian)
         self.n_params = self.functions.n_params
@@ -135,7 +135,7 @@ def problem(config: PlannerConfig, sizes, solver: SolverConfig) -> Problem:
 
 def library_key(config: PlannerConfig, sizes, solver: SolverConfig) -> str:
     """The cache key of the compiled library :func:`problem` loads for these arguments."""
-    hessian = _graph_knobs(solver).hessian
+    hessian = _graph_knobs(solver).local.hessian
     return compiled.library_key(*structure_key(config, sizes), hessian=hessian)
 
 
@@ -177,8 +177,8 @@ def _problem(config, sizes, knobs, compiling, folder) -> Problem:
 
 def _graph_knobs(solver: SolverConfig) -> SolverConfig:
     """Only the fields a Problem depends on, so that solvers differing elsewhere share it."""
-    hessian = "exact" if solver.hessian == "exact" else "differences"
-    return SolverConfig(fd_step=solver.fd_step, hessian=hessian)
+    hessian = "exact" if solver.local.hessian == "exact" else "differences"
+    return SolverConfig(local=LocalSolverSettings(fd_step=solver.local.fd_step, hessian=hessian))
 
 
 def snap(z, lower, upper) -> np.ndarray:

@@ -69,15 +69,15 @@ class NewtonSolver:
         every start ``more(busy)`` lists.
 
         With the quasi-Newton Hessian on compiled functions the starts run at once on
-        ``SolverConfig.solve_threads`` threads, the loop compiled
+        ``ParallelSettings.solve_threads`` threads, the loop compiled
         (:func:`.newton.minimize_compiled`; each result's ``time_s`` is then the batch's wall
         time; ``idle`` and ``more`` as in :func:`.threads.run_starts`); else one after
         another in the Python loop, its definition (no thread is left idle there: ``idle`` is
         not called; ``more`` is asked for first).
         """
         started = time.perf_counter()
-        knobs = dict(radius=self.solver.trust_radius, max_iter=self.solver.max_iter,
-                     tol=self.solver.tol)
+        local = self.solver.local
+        knobs = dict(radius=local.trust_radius, max_iter=local.max_iter, tol=local.tol)
         z0s = [np.asarray(z0, dtype=float) for z0, _ in starts]
         listing = []
 
@@ -87,14 +87,14 @@ class NewtonSolver:
                 z0s.extend(listing[0])
             return listing[0]
 
-        if self.solver.hessian == "quasi-newton":
+        if self.solver.local.hessian == "quasi-newton":
             def lent(done, busy):     # the idle thread sees results as the solver gives them
                 elapsed = time.perf_counter() - started
                 idle({i: self._result(problem, z0s[i], r, elapsed) for i, r in done.items()},
                      busy)
 
             results = minimize_compiled(problem.functions, np.array(z0s), problem.lower,
-                                        problem.upper, threads=self.solver.solve_threads,
+                                        problem.upper, threads=self.solver.parallel.solve_threads,
                                         idle=None if idle is None else lent,
                                         more=None if more is None else listed, **knobs)
             if results is not None:
@@ -105,7 +105,7 @@ class NewtonSolver:
         out = []
         for z0 in z0s:
             begun = time.perf_counter()
-            fgh = sr1(problem) if self.solver.hessian == "quasi-newton" else problem.fgh
+            fgh = sr1(problem) if self.solver.local.hessian == "quasi-newton" else problem.fgh
             result = minimize(problem.f, fgh, z0, problem.lower, problem.upper, **knobs)
             out.append(self._result(problem, z0, result, time.perf_counter() - begun))
         return out

@@ -28,10 +28,11 @@ def structured_starts(state: RobotState, goal, config: PlannerConfig,
 
     ``warm`` (last plan's target re-expressed in the robot's new frame, when given), ``stop``,
     ``goal`` (target on the goal, facing along the line of sight), soft and hard turns both ways
-    (their shapes: ``solver.soft_turn``, ``hard_turn`` and ``turn_distance``).
+    (their shapes: ``solver.multistart``'s ``soft_turn``, ``hard_turn`` and ``turn_distance``).
     """
     solver = SolverConfig() if solver is None else solver
-    soft, hard, distance_r = solver.soft_turn, solver.hard_turn, solver.turn_distance
+    shapes = solver.multistart
+    soft, hard, distance_r = shapes.soft_turn, shapes.hard_turn, shapes.turn_distance
     v_limit = config.robot.v_limit
     starts = {}
     if previous_target is not None:
