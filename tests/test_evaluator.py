@@ -60,3 +60,19 @@ def test_rows_from_two_batches_or_new_rows_are_costed():
     fresh = np.array([[2.0, 0.1, -0.2, 0.7]])
     evaluator.evaluate(fresh)
     assert evaluator.rows_costed == 23 and evaluator.times_costed(fresh[0]) == 1
+
+
+def test_a_large_look_up_reads_back_by_index_and_a_larger_batch_is_costed_anew():
+    """Many rows against a large batch are found through the batch's index of rows (not an
+    all-pairs comparison); a batch with more rows than any costed before is costed anew."""
+    cycle = _cycle()
+    z = box_samples(CONFIG, 300, 5)
+    evaluator = Evaluator(cycle)
+    totals = evaluator.totals(z)
+    rows = np.arange(299, 49, -1)                       # 250 x 300 pairs: the index
+    again = evaluator.evaluate(z[rows])
+    assert evaluator.read_back == 1 and evaluator.rows_costed == 300
+    np.testing.assert_array_equal(again.costs.total, totals[rows])
+    more = np.vstack([z, [[2.0, 0.1, -0.2, 0.7]]])
+    evaluator.evaluate(more)
+    assert evaluator.read_back == 1 and evaluator.rows_costed == 601

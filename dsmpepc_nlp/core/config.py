@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 from .cost_config import TERM_NAMES, CostConfig, SmoothingConfig
 from .errors import MAX_SIZE, MAX_SPEED, InputError
-from .validation import fail, validate_fields
+from .validation import check_booleans, check_integers, fail, validate_fields
 
 
 @dataclass(frozen=True)
@@ -166,8 +166,7 @@ class DockingConfig:
     def __post_init__(self):
         validate_fields(self, {"radius": dict(low=0.0), "min_survival": dict(low=0.0, high=1.0),
                                 "arrival_radius": dict(low=0.0)})
-        if not isinstance(self.radius_from_reach, bool):
-            fail("DockingConfig", "radius_from_reach", self.radius_from_reach, "True or False")
+        check_booleans(self, ("radius_from_reach",))
 
 
 @dataclass(frozen=True)
@@ -199,8 +198,7 @@ class StallConfig:
         validate_fields(self, {"window": dict(low=0.0, low_open=True),
                                 "min_displacement": dict(low=0.0, low_open=True),
                                 "gain": dict(low=1.0)})
-        if isinstance(self.levels, bool) or not isinstance(self.levels, int) or self.levels < 0:
-            fail("StallConfig", "levels", self.levels, "an integer >= 0")
+        check_integers(self, {"levels": 0})
 
     def progress_gain(self, level: int) -> float:
         """The progress weight's factor at ``level`` (1 at level 0)."""
@@ -241,9 +239,7 @@ class PlannerConfig:
         for name, kind in expected.items():
             if not isinstance(getattr(self, name), kind):
                 fail("PlannerConfig", name, getattr(self, name), f"a {kind.__name__}")
-        for name in ("anticipatory_pc", "terminal_cost"):
-            if not isinstance(getattr(self, name), bool):
-                fail("PlannerConfig", name, getattr(self, name), "True or False")
+        check_booleans(self, ("anticipatory_pc", "terminal_cost"))
 
     @classmethod
     def paper(cls, variant: str = "ds-mpepc", **changes) -> PlannerConfig:

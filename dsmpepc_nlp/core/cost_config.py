@@ -6,7 +6,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from .validation import fail, validate_fields
+from .validation import check_booleans, fail, validate_fields
 
 TERM_NAMES = ("progress", "action", "collision", "heading", "terminal")
 """The cost terms, in the order of docs/method.md section 5.3."""
@@ -94,9 +94,7 @@ class CostConfig:
             "w_action": dict(low=0.0),
             "w_terminal": dict(low=0.0),
         })
-        for name in ("ttg_along_nf", "sigma_static_from_map"):
-            if not isinstance(getattr(self, name), bool):
-                fail("CostConfig", name, getattr(self, name), "True or False")
+        check_booleans(self, ("ttg_along_nf", "sigma_static_from_map"))
         try:
             disabled = tuple(self.disabled) if not isinstance(self.disabled, str) else None
         except TypeError:

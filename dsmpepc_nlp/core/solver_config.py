@@ -12,7 +12,7 @@ import dataclasses
 from dataclasses import dataclass, field
 
 from .errors import InputError
-from .validation import fail, validate_fields
+from .validation import check_booleans, check_integers, fail, validate_fields
 
 SOLVER_METHODS = ("ipopt", "newton", "sampling")
 
@@ -21,19 +21,6 @@ SOLVER_NAMES = ("nlp", "fast", "sampling")
 """The solvers by name, as on the command line (:meth:`SolverConfig.named`): the one list."""
 
 HESSIANS = ("differences", "exact", "quasi-newton")
-
-
-def _integers(owner: str, instance, lows: dict) -> None:
-    for name, low in lows.items():
-        value = getattr(instance, name)
-        if isinstance(value, bool) or not isinstance(value, int) or value < low:
-            fail(owner, name, value, f"an integer >= {low}")
-
-
-def _booleans(owner: str, instance, names) -> None:
-    for name in names:
-        if not isinstance(getattr(instance, name), bool):
-            fail(owner, name, getattr(instance, name), "True or False")
 
 
 @dataclass(frozen=True)
@@ -60,7 +47,7 @@ class LocalSolverSettings:
     """Initial trust radius of ``newton``, as a share of each variable's range."""
 
     def __post_init__(self):
-        _integers("LocalSolverSettings", self, {"max_iter": 1})
+        check_integers(self, {"max_iter": 1})
         positive = dict(low=0.0, low_open=True)
         validate_fields(self, {"tol": positive, "fd_step": positive,
                                "trust_radius": dict(low=0.0, low_open=True, high=1.0)})
@@ -99,7 +86,7 @@ class MultistartSettings:
     """Target distance r of the turn starts, m."""
 
     def __post_init__(self):
-        _integers("MultistartSettings", self, {"n_spread": 0, "n_screen": 0, "n_solved": 1})
+        check_integers(self, {"n_spread": 0, "n_screen": 0, "n_solved": 1})
         validate_fields(self, {"distinct": dict(low=0.0, high=1.0),
                                "soft_turn": dict(low=0.0), "hard_turn": dict(low=0.0),
                                "turn_distance": dict(low=0.0, low_open=True)})
@@ -123,7 +110,7 @@ class PolishSettings:
     (docs/nlp.md, "Pass 6")."""
 
     def __post_init__(self):
-        _integers("PolishSettings", self, {"rounds": 0, "starts": 1})
+        check_integers(self, {"rounds": 0, "starts": 1})
         validate_fields(self, {"step": dict(low=0.0, high=1.0),
                                "margin": dict(low=0.0, allow_inf=True)})
 
@@ -153,9 +140,9 @@ class ParallelSettings:
     final polish continues those walks whose seed is still a seed."""
 
     def __post_init__(self):
-        _integers("ParallelSettings", self, {"solve_threads": 1, "parallel_rows": 1,
+        check_integers(self, {"solve_threads": 1, "parallel_rows": 1,
                                              "pair_budget": 1})
-        _booleans("ParallelSettings", self, ("screen_ahead", "polish_ahead"))
+        check_booleans(self, ("screen_ahead", "polish_ahead"))
 
 
 @dataclass(frozen=True)
@@ -182,7 +169,7 @@ class SolverConfig:
     def __post_init__(self):
         if self.method not in SOLVER_METHODS:
             fail("SolverConfig", "method", self.method, f"one of {', '.join(SOLVER_METHODS)}")
-        _integers("SolverConfig", self, {"n_samples": 1, "seed": 0})
+        check_integers(self, {"n_samples": 1, "seed": 0})
         for name, kind in (("local", LocalSolverSettings), ("multistart", MultistartSettings),
                            ("polish", PolishSettings), ("parallel", ParallelSettings)):
             if not isinstance(getattr(self, name), kind):

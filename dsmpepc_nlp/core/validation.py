@@ -28,6 +28,27 @@ def finite(owner, name, value, *, low=-math.inf, high=math.inf, low_open=False, 
     return number
 
 
+def check_integers(instance, lows: dict) -> None:
+    """Each field of ``lows`` an integer (not a bool) of at least its low; None passes for a
+    field whose low is given as ``(low, None)``, meaning the field may be left unset."""
+    owner = type(instance).__name__
+    for name, low in lows.items():
+        value = getattr(instance, name)
+        if isinstance(low, tuple):
+            if value is None:
+                continue
+            low = low[0]
+        if isinstance(value, bool) or not isinstance(value, int) or value < low:
+            fail(owner, name, value, f"an integer >= {low}")
+
+
+def check_booleans(instance, names) -> None:
+    """Each field of ``names`` True or False (not 0, 1 or a string)."""
+    for name in names:
+        if not isinstance(getattr(instance, name), bool):
+            fail(type(instance).__name__, name, getattr(instance, name), "True or False")
+
+
 def validate_fields(instance, rules: dict) -> None:
     owner = type(instance).__name__
     for name, kwargs in rules.items():

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.validation import fail, validate_fields
+from ..core.validation import check_booleans, validate_fields
 
 OUTCOMES = ("success", "collision", "deadlock", "timeout")
 """Per-robot outcomes (docs/method.md section 7.3)."""
@@ -45,8 +45,7 @@ class OutcomeConfig:
     """Less progress than this (m) over the window is a deadlock."""
 
     def __post_init__(self):
-        if not isinstance(self.deadlock, bool):
-            fail("OutcomeConfig", "deadlock", self.deadlock, "True or False")
+        check_booleans(self, ("deadlock",))
         validate_fields(self, {"deadlock_window": dict(low=0.0, low_open=True),
                                 "deadlock_progress": dict(low=0.0)})
 

@@ -10,7 +10,7 @@ as a static obstacle for the others.
 The planner is whatever ``planner_factory(config, solver)`` builds (default
 :class:`~dsmpepc_nlp.solve.planner.Planner`): any
 :class:`~dsmpepc_nlp.solve.policy.PlanningPolicy` drives a robot, which is how the ORCA
-baseline runs in the very same loop. The scenario types live in :mod:`.types` (re-exported here).
+baseline runs in the very same loop. The scenario types live in :mod:`.types`.
 """
 
 from __future__ import annotations

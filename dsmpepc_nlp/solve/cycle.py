@@ -71,6 +71,9 @@ class Cycle:
         Whether each dynamic object can matter to the collision probability within the
         horizon's reach (see :func:`reach_mask`); the others only enter the smallest distance
         and the terminal time to collision.
+    cull : ndarray, (N+1,)
+        :func:`cull_distances` at each pose time, m: what culls objects from the cycle and, per
+        pose, from the NLP's graph.
     parameters : ndarray
         The compiled kernel's scalar parameters (:data:`PARAMETERS`).
     kernel_arrays : dict of str to ndarray
@@ -99,6 +102,7 @@ class Cycle:
     in_reach: np.ndarray = None
     parameters: np.ndarray = None
     kernel_arrays: dict = None
+    cull: np.ndarray = None
 
     @classmethod
     def prepare(cls, state: RobotState, world, goal, config: PlannerConfig) -> Cycle:
@@ -115,7 +119,8 @@ class Cycle:
                                       near=(state.x, state.y), reach=config.reach)
         footprint = np.array(config.robot.footprint, dtype=float)
         bounds = reach_bound(state, config, predicted, radii)
-        in_reach, floor = reach_mask(bounds, config, owner, len(world.obstacles), times)
+        cull = cull_distances(times, config)
+        in_reach, floor = reach_mask(bounds, cull, owner, len(world.obstacles))
         keep = in_reach[owner]
         kept = np.flatnonzero(in_reach)
         counts = np.bincount(owner[keep], minlength=len(in_reach))[kept]
@@ -134,7 +139,7 @@ class Cycle:
                   for name, a in arrays.items()}
         parameters = parameter_vector(state, goal, config, grid, navigation, floor, CULL_SIGMAS)
         return cls(config, state, goal, world, times, centers, radii, velocities, owner,
-                   predicted, navigation, footprint, bounds, in_reach, parameters, arrays)
+                   predicted, navigation, footprint, bounds, in_reach, parameters, arrays, cull)
 
     @property
     def grid(self):
@@ -164,11 +169,11 @@ def cull_distances(times, config: PlannerConfig) -> np.ndarray:
     return CULL_SIGMAS * dynamic_sigma(np.asarray(times, dtype=float), config.cost)
 
 
-def reach_mask(bounds, config: PlannerConfig, owner, n_objects, times):
+def reach_mask(bounds, cull, owner, n_objects):
     """Which objects can matter to the collision probability within the horizon's reach.
 
-    An object whose :func:`reach_bound` (``bounds``, (N+1, K)) stays at or above
-    :func:`cull_distances` at every step (``times``, (N+1,), s) is left out (see
+    An object whose :func:`reach_bound` (``bounds``, (N+1, K)) stays at or above its step's
+    cull distance (``cull``, (N+1,): :func:`cull_distances`) at every step is left out (see
     :data:`CULL_SIGMAS`).
 
     Returns
@@ -181,8 +186,7 @@ def reach_mask(bounds, config: PlannerConfig, owner, n_objects, times):
     has = bounds.shape[1] > 0
     bound = bounds.min(axis=0) if has else np.zeros(0)
     # How far inside its step's cull distance each circle comes (< 0: it can matter).
-    inside = (bounds - cull_distances(times, config)[:, None]).min(axis=0) if has \
-        else np.zeros(0)
+    inside = (bounds - cull[:, None]).min(axis=0) if has else np.zeros(0)
     per_object, margin = np.full(n_objects, np.inf), np.full(n_objects, np.inf)
     np.minimum.at(per_object, owner, bound)
     np.minimum.at(margin, owner, inside)

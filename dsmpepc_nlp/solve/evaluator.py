@@ -131,6 +131,11 @@ class Evaluator:
         return batch
 
 
+_COMPARE_ALL = 65_536
+"""Row pairs up to which a look-up compares every row of a batch at once; above, the batch's
+rows are indexed by their bytes (a sampler's thousands of rows against a screen's hundreds)."""
+
+
 def _as_batch(z) -> np.ndarray:
     return np.atleast_2d(np.asarray(z, dtype=float))
 
@@ -140,6 +145,7 @@ class _Batch:
 
     def __init__(self, z, raw=None, module=None, evaluation=None):
         self.z, self._raw, self._module, self._evaluation = z, raw, module, evaluation
+        self._index = None
 
     @classmethod
     def cost(cls, z, cycle, compiled, pair_budget, parallel_rows) -> _Batch:
@@ -168,13 +174,19 @@ class _Batch:
 
     def rows_of(self, z: np.ndarray):
         """Indices of the rows of ``z`` in this batch (the first match of each), or None
-        when one of them is not in it."""
-        if len(self.z) == 0 or z.shape[1:] != self.z.shape[1:]:
+        when one of them is not in it (a batch of more rows than this one is never looked
+        for: it is costed anew)."""
+        if len(self.z) == 0 or len(z) > len(self.z) or z.shape[1:] != self.z.shape[1:]:
             return None
-        same = np.all(self.z[None, :, :] == z[:, None, :], axis=2)
-        if not np.all(np.any(same, axis=1)):
-            return None
-        return np.argmax(same, axis=1)
+        if len(z) * len(self.z) <= _COMPARE_ALL:        # a plan's choice: one row, any batch
+            same = np.all(self.z[None, :, :] == z[:, None, :], axis=2)
+            return np.argmax(same, axis=1) if np.all(np.any(same, axis=1)) else None
+        if self._index is None:
+            self._index = {}
+            for i, row in enumerate(self.z):
+                self._index.setdefault(row.tobytes(), i)
+        rows = [self._index.get(row.tobytes()) for row in z]
+        return None if None in rows else np.array(rows)
 
 
 def _evaluate_numpy(z, cycle: Cycle, pair_budget: int) -> Evaluation:

@@ -44,8 +44,6 @@ COMPILE_MODES = ("background", "wait")
 ``$DSMPEPC_COMPILE`` sets the default; :meth:`Planner.prepare` compiles everything ahead."""
 
 
-
-
 class Planner:
     """Plans one cycle at a time and keeps the last target for MPEPC's warm start.
 
@@ -339,4 +337,3 @@ def _control(trajectory: Trajectory, config: PlannerConfig) -> tuple:
 
 def _replace(obj, **changes):
     return dataclasses.replace(obj, **changes)
-

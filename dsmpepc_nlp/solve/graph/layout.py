@@ -10,10 +10,9 @@ import numpy as np
 
 from ...core.config import PlannerConfig
 from ...core.control_law import clamp_measured
-from ...core.errors import InputError
 from ...core.grid import FAR
+from ...core.validation import check_integers
 from .. import settings as settings_block
-from ..cycle import cull_distances
 
 # FAR (core.grid's): the distance reported by padding objects and by a world without a map,
 # m; exp(-FAR^2/sigma^2) is exactly 0.
@@ -55,13 +54,8 @@ class GraphSizes:
     pose_objects: int | None = None
 
     def __post_init__(self):
-        for name, low in (("max_objects", 1), ("circles_per_object", 1), ("table_cells", 2),
-                          ("ray_samples", 2), ("pose_objects", 0)):
-            value = getattr(self, name)
-            if name in ("pose_objects", "ray_samples") and value is None:
-                continue
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                raise InputError(f"GraphSizes.{name} = {value!r}: must be an integer >= {low}")
+        check_integers(self, {"max_objects": 1, "circles_per_object": 1, "table_cells": 2,
+                              "ray_samples": (2, None), "pose_objects": (0, None)})
 
     @property
     def k_pose(self) -> int:
@@ -181,7 +175,7 @@ def pose_mask(cycle, indices, circles_per_object: int) -> np.ndarray:
     ``indices`` are the packed circles' indices among the cycle's (:func:`pack_obstacles`,
     -1 for padding); the graph moves them as the cycle predicts them (constant velocity). An
     object is 0 at a pose where ``Cycle.reach_bounds`` of every circle of it is at least
-    its step's ``cycle.cull_distances``: there ``1 - P_c`` is 1.0 exactly for every z in the box,
+    its step's ``cycle.cull``: there ``1 - P_c`` is 1.0 exactly for every z in the box,
     so the graph skips it (the bound that leaves whole objects out of a cycle, per pose; in
     the crowded demo scene about 70 % of the pose-object pairs).
     """
@@ -189,7 +183,7 @@ def pose_mask(cycle, indices, circles_per_object: int) -> np.ndarray:
     real = indices >= 0
     bounds[:, real] = cycle.reach_bounds[:, indices[real]]
     per_object = bounds.reshape(len(bounds), -1, circles_per_object).min(axis=2)
-    return (per_object < cull_distances(cycle.times, cycle.config)[:, None]).astype(float)
+    return (per_object < cycle.cull[:, None]).astype(float)
 
 
 def objects_in_reach(cycle) -> int:
