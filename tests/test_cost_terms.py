@@ -7,9 +7,10 @@ import pytest
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.control_law import rollout
-from dsmpepc_nlp.core.cost_config import TERM_NAMES, CostConfig
+from dsmpepc_nlp.core.cost_config import CostConfig
 from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.exact_cost import evaluate
+from dsmpepc_nlp.core.terms import TERM_NAMES
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 
 

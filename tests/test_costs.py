@@ -9,11 +9,12 @@ from hypothesis import strategies as st
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.control_law import rollout
-from dsmpepc_nlp.core.cost_config import TERM_NAMES, SmoothingConfig
+from dsmpepc_nlp.core.cost_config import SmoothingConfig
 from dsmpepc_nlp.core.costs import assemble, collision_probability, disk_inverse_ttc, inverse_ttg
 from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.exact_cost import evaluate
 from dsmpepc_nlp.core.solver_config import SolverConfig
+from dsmpepc_nlp.core.terms import TERM_NAMES
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 from dsmpepc_nlp.solve.planner import Planner
 

@@ -11,9 +11,10 @@ import pytest
 
 from dsmpepc_nlp.core.config import HorizonConfig, PlannerConfig
 from dsmpepc_nlp.core.control_law import rollout
-from dsmpepc_nlp.core.cost_config import TERM_NAMES, SmoothingConfig
+from dsmpepc_nlp.core.cost_config import SmoothingConfig
 from dsmpepc_nlp.core.exact_cost import evaluate
 from dsmpepc_nlp.core.grid import FAR
+from dsmpepc_nlp.core.terms import TERM_NAMES
 from dsmpepc_nlp.solve import cache, compiled
 from dsmpepc_nlp.solve import graph as g
 from dsmpepc_nlp.solve.cycle import Cycle

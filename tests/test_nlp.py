@@ -10,11 +10,12 @@ import pytest
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.control_law import rollout
-from dsmpepc_nlp.core.cost_config import TERM_NAMES, SmoothingConfig
+from dsmpepc_nlp.core.cost_config import SmoothingConfig
 from dsmpepc_nlp.core.costs import assemble
 from dsmpepc_nlp.core.exact_cost import evaluate, exact_geometry
 from dsmpepc_nlp.core.smooth import CASADI
 from dsmpepc_nlp.core.solver_config import SolverConfig
+from dsmpepc_nlp.core.terms import TERM_NAMES
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 from dsmpepc_nlp.solve import graph
 from dsmpepc_nlp.solve.cycle import Cycle

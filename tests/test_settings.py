@@ -8,9 +8,10 @@ import pytest
 
 from dsmpepc_nlp.core.config import ControlLawConfig, HorizonConfig, PlannerConfig, RobotConfig
 from dsmpepc_nlp.core.control_law import rollout
-from dsmpepc_nlp.core.cost_config import TERM_NAMES, CostConfig, SmoothingConfig
+from dsmpepc_nlp.core.cost_config import CostConfig, SmoothingConfig
 from dsmpepc_nlp.core.exact_cost import evaluate
 from dsmpepc_nlp.core.solver_config import SolverConfig
+from dsmpepc_nlp.core.terms import TERM_NAMES
 from dsmpepc_nlp.solve import cache, compiled, settings
 from dsmpepc_nlp.solve import graph as g
 from dsmpepc_nlp.solve.cycle import Cycle

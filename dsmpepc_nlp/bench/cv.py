@@ -22,9 +22,9 @@ import numpy as np
 
 from ..core.config import PlannerConfig, RobotState
 from ..core.control_law import arc_step
-from ..core.cost_config import TERM_NAMES
 from ..core.geometry import footprint_points
 from ..core.solver_config import SolverConfig
+from ..core.terms import TERM_NAMES
 from .orca import GAIN_TURN, SLOW_RADIUS, OrcaPlan, _Costs, _Trajectory
 
 CROWD_BASELINES = ("orca", "cv")

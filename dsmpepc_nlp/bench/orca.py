@@ -28,9 +28,9 @@ import numpy as np
 
 from ..core.config import VARIANTS, PlannerConfig, RobotState
 from ..core.control_law import arc_step
-from ..core.cost_config import TERM_NAMES
 from ..core.errors import InputError, MissingExtra
 from ..core.solver_config import SolverConfig
+from ..core.terms import TERM_NAMES
 from ..sim.simulate import simulate
 
 INSTALL_HINT = 'the ORCA baseline needs pyrvo: pip install "dsmpepc_nlp[orca]"'

@@ -11,8 +11,9 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 
-from .cost_config import TERM_NAMES, CostConfig, SmoothingConfig
+from .cost_config import CostConfig, SmoothingConfig
 from .errors import MAX_SIZE, MAX_SPEED, InputError
+from .terms import TERM_NAMES
 from .validation import check_booleans, check_integers, fail, validate_fields
 
 

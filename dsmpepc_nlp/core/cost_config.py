@@ -1,18 +1,13 @@
-"""The cost's configuration: the term table (names and weight fields), the weights and widths
-of the MPEPC / DS-MPEPC cost, and the smoothing temperatures of its smooth form."""
+"""The cost's configuration: the weights and widths of the MPEPC / DS-MPEPC cost (its terms
+are :mod:`.terms`) and the smoothing temperatures of its smooth form."""
 
 from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
 
+from .terms import TERM_NAMES, TERMS
 from .validation import check_booleans, fail, validate_fields
-
-TERM_NAMES = ("progress", "action", "collision", "heading", "terminal")
-"""The cost terms, in the order of docs/method.md section 5.3."""
-TERM_WEIGHTS = {"progress": "w_progress", "action": "w_action", "collision": "c_collision",
-                "heading": "c_heading", "terminal": "w_terminal"}
-"""Each term's weight field in :class:`CostConfig`."""
 
 
 @dataclass(frozen=True)
@@ -105,9 +100,8 @@ class CostConfig:
         object.__setattr__(self, "disabled", disabled)
 
     def weight(self, name: str) -> float:
-        """The weight of term ``name``: ``w_progress``, ``w_action``, ``c_collision``,
-        ``c_heading`` or ``w_terminal``."""
-        return getattr(self, TERM_WEIGHTS[name])
+        """The weight of term ``name``: the field its :class:`~.terms.Term` names."""
+        return getattr(self, next(term.weight for term in TERMS if term.name == name))
 
 
 @dataclass(frozen=True)

@@ -20,6 +20,7 @@ import numpy as np
 from .config import PlannerConfig
 from .control_law import EXACT
 from .smooth import NUMPY, is_exact, relu, sabs, sigmoid, smax
+from .terms import TERMS, EndQuantities, StepQuantities
 
 # --- shared geometric formulas ----------------------------------------------------------------
 
@@ -168,27 +169,21 @@ def assemble(distance, inv_ttc, sigma, nf, v, omega, heading_err, inv_ttg, inv_t
     Returns ``total`` ``(n, 1, 1)``, ``terms`` (a dict over :data:`TERM_NAMES`) and
     ``survivability`` ``(n, N+1, 1)``.
     """
-    c = config.cost
     pc = collision_probability(distance, inv_ttc, sigma, config, smoothing, ops)
     survival = ops.cumprod_steps(ops.prod_objects(1.0 - pc) * (1.0 if kept is None else kept))
     after_start = ops.steps(survival, 1, None)
     final = ops.steps(survival, -1, None)
-    # Each term unweighted; the weights and switches are data (PlannerConfig.cost_terms).
-    raw = {
-        "progress": ops.sum_steps(after_start * (ops.steps(nf, 1, None) - ops.steps(nf, None, -1))),
-        "action": ops.sum_steps((c.c_v * v * v + c.c_w * omega * omega) * config.horizon.dt),
-        "collision": ops.sum_steps(1.0 - after_start),
-        # Deviation from IROS 2012 (docs/method.md section 8): the heading heuristic is
-        # weighted by the horizon survivability like progress is; unweighted, a robot in
-        # collision could gain by turning, breaking Lemma 3.
-        "heading": heading_err * final,
-        "terminal": -final * ops.exp(-(inv_ttg * inv_ttg) / (c.s_ttg * c.s_ttg))
-        * ops.exp(-(inv_ttc_terminal * inv_ttc_terminal) / (c.s_ttc * c.s_ttc)),
-    }
-    terms = {name: (weight * raw[name] if enabled else 0.0 * final)
-             for name, weight, enabled in config.cost_terms()}
-    total = terms["progress"] + terms["action"] + terms["collision"] + terms["heading"] \
-        + terms["terminal"]
+    at = {"steps": StepQuantities(after_start, ops.steps(nf, 1, None) - ops.steps(nf, None, -1),
+                                  v, omega, config.horizon.dt),
+          "end": EndQuantities(final, heading_err, inv_ttg, inv_ttc_terminal)}
+    # Each term of the table unweighted, then weighted or switched off (PlannerConfig.cost_terms)
+    # and added up in the table's order.
+    raw = {term.name: term.raw(at[term.over], config.cost) for term in TERMS}
+    terms, total = {}, None
+    for term, (name, weight, enabled) in zip(TERMS, config.cost_terms()):
+        value = raw[name] if term.over == "end" else ops.sum_steps(raw[name])
+        terms[name] = weight * value if enabled else 0.0 * final
+        total = terms[name] if total is None else total + terms[name]
     return total, terms, survival
 
 

@@ -12,10 +12,10 @@ from pathlib import Path
 import numpy as np
 
 from ..core.config import PlannerConfig, RobotState
-from ..core.cost_config import TERM_NAMES
 from ..core.errors import InputError
 from ..core.files import atomic_write_bytes
 from ..core.jsonio import json_clean
+from ..core.terms import TERM_NAMES
 from ..core.world import DynamicObstacle, OccupancyGrid, World
 from ..solve.records import STATUSES
 

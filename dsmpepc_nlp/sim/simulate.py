@@ -23,10 +23,10 @@ import numpy as np
 
 from ..core.config import PlannerConfig, RobotState
 from ..core.control_law import arc_step
-from ..core.cost_config import TERM_NAMES
 from ..core.errors import InputError
 from ..core.geometry import footprint_points
 from ..core.solver_config import SolverConfig
+from ..core.terms import TERM_NAMES
 from ..core.world import DynamicObstacle, World
 from ..solve.planner import Planner
 from ..solve.policy import PlanningPolicy

@@ -15,22 +15,23 @@ import numpy as np
 
 from ..core.config import PlannerConfig, RobotState
 from ..core.control_law import _RHO_GUARD, clamp_measured
-from ..core.cost_config import TERM_NAMES
 from ..core.costs import GOAL_TOLERANCE, dynamic_sigma
 from ..core.exact_cost import _SIGNIFICANT_BELL
 from ..core.navigation import NavigationFunction
+from ..core.terms import TERM_NAMES
 from ..core.world import World
 
 PARAMETERS = (
     "x0", "y0", "phi0", "v0", "omega0", "k1", "k2", "beta", "lam", "r_thresh",
     "omega_limit", "accel_limit", "alpha_limit", "v_limit", "dt", "rho_guard2",
     "has_grid", "sdf_res", "sdf_ox", "sdf_oy", "ttc_range", "sigma_static",
-    "sigma_dynamic", "a", "s_ttc", "s_ttg", "c_v", "c_w", "anticipatory", "terminal",
+    "sigma_dynamic", "a", "s_ttc", "anticipatory", "terminal",
     "nf_grid", "nf_res", "nf_ox", "nf_oy", "goal_x", "goal_y", "goal_tol2",
     *(f"w_{name}" for name in TERM_NAMES), *(f"on_{name}" for name in TERM_NAMES),
     "cull_floor", "near_static", "goal_tol", "cull_sigmas", "ttg_nf", "sigma_dynamic_growth")
 """Names of the kernel's scalar parameters, in the order of its parameter vector: each term of
-the term table (``TERM_NAMES``) has its weight ``w_<term>`` and its switch ``on_<term>``."""
+the term table (``TERM_NAMES``) has its weight ``w_<term>`` and its switch ``on_<term>``. (The
+term formulas read the cost's numbers by name, from ``kernel.layout.cost_numbers``.)"""
 
 CULL_SIGMAS = 7.0
 """An object farther than this many bell widths (``costs.dynamic_sigma`` at that pose's time)
@@ -222,7 +223,6 @@ def parameter_vector(state, goal, config: PlannerConfig, grid, navigation,
         "sdf_oy": grid.origin[1] if grid is not None else 0.0,
         "ttc_range": cost.ttc_range, "sigma_static": cost.sigma_static,
         "sigma_dynamic": cost.sigma_dynamic, "a": cost.a, "s_ttc": cost.s_ttc,
-        "s_ttg": cost.s_ttg, "c_v": cost.c_v, "c_w": cost.c_w,
         "anticipatory": config.anticipatory_pc, "terminal": config.terminal_cost,
         "nf_grid": navigation.values is not None,
         "nf_res": nf_grid.resolution if nf_grid is not None else 1.0,

@@ -29,8 +29,8 @@ import numpy as np
 
 from ..core.config import VARIANTS, PlannerConfig, RobotState
 from ..core.control_law import Trajectory, rollout
-from ..core.cost_config import TERM_NAMES
 from ..core.exact_cost import CostBreakdown
+from ..core.terms import TERM_NAMES
 from ..core.world import DynamicObstacle, OccupancyGrid, World
 from .cache import compile_enabled, numba_folder, sources_hash, warn_once
 from .cycle import Cycle
@@ -233,7 +233,8 @@ def _run(module, cycle, z, poses, v, omega, target, survival, out, given, parall
     # it. The serial kernel touches no shared state (it lets go of Python's lock and writes
     # only its own outputs): threads run it side by side.
     with _LOCK if parallel else contextlib.nullcontext():
-        run(z, cycle.parameters, k["footprint"], k["sdf"], k["nf"], k["predicted"], k["radii"],
+        run(z, cycle.parameters, module.cost_numbers(cycle.config.cost), k["footprint"],
+            k["sdf"], k["nf"], k["predicted"], k["radii"],
             k["velocities"], k["starts"], k["culled_predicted"], k["culled_radii"],
             k["end_centers"], k["end_radii"], k["end_velocities"], poses, v, omega, target,
             survival, out, given, module.numba.get_num_threads())

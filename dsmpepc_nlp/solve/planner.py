@@ -12,10 +12,10 @@ import numpy as np
 
 from ..core.config import PlannerConfig, RobotState
 from ..core.control_law import Trajectory, rollout
-from ..core.cost_config import TERM_NAMES
 from ..core.errors import InputError
 from ..core.exact_cost import CostBreakdown
 from ..core.solver_config import SolverConfig
+from ..core.terms import TERM_NAMES
 from ..core.world import World
 from . import docking, exact
 from .cycle import Cycle

@@ -8,7 +8,7 @@ import numpy as np
 
 from ...core.config import PlannerConfig
 from ...core.control_law import symbolic_rollout
-from ...core.cost_config import TERM_NAMES
+from ...core.terms import TERM_NAMES
 from .geometry import lookups, table_lookup
 from .layout import PARAMETER_NAMES, GraphSizes, parameter_shapes, resolved_sizes
 from .pieces import (

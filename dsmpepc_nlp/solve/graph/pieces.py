@@ -8,7 +8,6 @@ import copy
 
 import casadi as ca
 
-from ...core.cost_config import TERM_NAMES
 from ...core.costs import (
     assemble,
     collision_probability,
@@ -17,6 +16,7 @@ from ...core.costs import (
     terminal_inverse_ttg,
 )
 from ...core.smooth import CASADI, is_exact, softmax_objects
+from ...core.terms import TERM_NAMES
 from .. import settings as settings_block
 from .geometry import (
     STENCIL,

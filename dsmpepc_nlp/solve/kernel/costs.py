@@ -1,6 +1,6 @@
-"""The exact cost of many trajectories, compiled: survivability, the assembly of the terms
-(``costs.assemble``) and the batch entry points :func:`exact_costs` and
-:func:`exact_costs_serial` (both cores, or the calling thread)."""
+"""The exact cost of many trajectories, compiled: survivability, the assembly of the term
+table's terms (``costs.assemble``, the formulas from :mod:`.terms`) and the batch entry points
+:func:`exact_costs` and :func:`exact_costs_serial` (both cores, or the calling thread)."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import numba
 import numpy as np
 from numba import prange
 
+from ...core.terms import EndQuantities, StepQuantities
 from .geometry import (
     culled_distance,
     descent,
@@ -25,8 +26,6 @@ from .geometry import (
 from .law import rollout
 from .layout import (
     ANTICIPATORY,
-    C_V,
-    C_W,
     CULL_FLOOR,
     CULL_SIGMAS,
     DT,
@@ -39,17 +38,19 @@ from .layout import (
     ON_FIRST_TERM,
     OUT,
     S_TTC,
-    S_TTG,
     SIGMA_DYNAMIC,
     SIGMA_DYNAMIC_GROWTH,
     SIGMA_STATIC,
+    STEPWISE,
     TERMINAL,
     TOTAL_COLUMN,
     TTG_NF,
     W_FIRST_TERM,
     A,
+    cost_numbers,
     jit,
 )
+from .terms import END_TERMS, STEP_TERMS
 
 
 @jit
@@ -125,18 +126,18 @@ def survival_along(p, fp, sdf, pred, radii, velocities, starts, poses, vs, survi
 
 
 @jit
-def assemble(p, nf, poses, vs, omegas, survival, terminal_inv, scratch, out):
-    """``costs.assemble``: the five terms, each weighted or switched off, and the total."""
+def assemble(p, c, nf, poses, vs, omegas, survival, terminal_inv, scratch, out):
+    """``costs.assemble``: every term of the table (:mod:`.terms`), each weighted or switched
+    off, and the total. ``scratch`` has a row per term: a step term's values per step (summed
+    as numpy sums them), an end term's value in its first column."""
     n_steps = vs.shape[0]
     dt = p[DT]
     nf_prev = nf_value(nf, p, poses[0, 0], poses[0, 1])
     for k in range(1, n_steps + 1):
         nf_k = nf_value(nf, p, poses[k, 0], poses[k, 1])
-        scratch[0, k - 1] = survival[k] * (nf_k - nf_prev)
-        scratch[1, k - 1] = 1.0 - survival[k]
+        STEP_TERMS(StepQuantities(survival[k], nf_k - nf_prev, vs[k - 1], omegas[k - 1], dt),
+                   c, scratch, k - 1)
         nf_prev = nf_k
-        v, w = vs[k - 1], omegas[k - 1]
-        scratch[2, k - 1] = (p[C_V] * v * v + p[C_W] * w * w) * dt
     final = survival[n_steps]
     x, y, phi = poses[n_steps, 0], poses[n_steps, 1], poses[n_steps, 2]
     ex, ey = descent(nf, p, x, y)
@@ -144,16 +145,13 @@ def assemble(p, nf, poses, vs, omegas, survival, terminal_inv, scratch, out):
         inv_ttg = inverse_ttg_along_nf(p, nf_prev, ex, ey, x, y, phi, vs[n_steps - 1])
     else:
         inv_ttg = inverse_ttg(p, x, y, phi, vs[n_steps - 1])
-    s_ttg, s_ttc = p[S_TTG], p[S_TTC]
-    # The raw terms, in TERM_NAMES order: progress, action, collision, heading, terminal.
-    raw = (pairwise(scratch[0], n_steps), pairwise(scratch[2], n_steps),
-           pairwise(scratch[1], n_steps), heading_error(ex, ey, phi) * final,
-           -final * math.exp(-(inv_ttg * inv_ttg) / (s_ttg * s_ttg))
-           * math.exp(-(terminal_inv * terminal_inv) / (s_ttc * s_ttc)))
+    END_TERMS(EndQuantities(final, heading_error(ex, ey, phi), inv_ttg, terminal_inv), c,
+              scratch, 0)
     total = 0.0
     for t in range(N_TERMS):
+        raw = pairwise(scratch[t], n_steps) if STEPWISE[t] else scratch[t, 0]
         column = TOTAL_COLUMN + 1 + t
-        out[column] = p[W_FIRST_TERM + t] * raw[t] if p[ON_FIRST_TERM + t] != 0.0 else 0.0 * final
+        out[column] = p[W_FIRST_TERM + t] * raw if p[ON_FIRST_TERM + t] != 0.0 else 0.0 * final
         total = out[column] if t == 0 else total + out[column]
     out[TOTAL_COLUMN] = total
     out[INV_TTG_COLUMN] = inv_ttg
@@ -161,12 +159,12 @@ def assemble(p, nf, poses, vs, omegas, survival, terminal_inv, scratch, out):
 
 
 @jit
-def rows(first, stride, z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred,
+def rows(first, stride, z, p, c, fp, sdf, nf, pred, radii, velocities, starts, culled_pred,
           culled_radii, end_centres, end_radii, end_velocities, poses, vs, omegas, targets,
           survival, out, given):
     """Rows ``first, first + stride, ...`` of :func:`exact_costs`."""
     n, n_steps = z.shape[0], vs.shape[1]
-    scratch = np.empty((3, n_steps))
+    scratch = np.empty((N_TERMS, n_steps))
     pts = np.empty((fp.shape[0], 2))
     for i in range(first, n, stride):
         fragile = False
@@ -182,24 +180,25 @@ def rows(first, stride, z, p, fp, sdf, nf, pred, radii, velocities, starts, cull
         if p[TERMINAL] != 0.0:
             terminal_inv = terminal_inverse_ttc(p, fp, sdf, end_centres, end_radii,
                                                  end_velocities, end[0], end[1], end[2], pts)
-        assemble(p, nf, poses[i], vs[i], omegas[i], survival[i], terminal_inv, scratch, out[i])
+        assemble(p, c, nf, poses[i], vs[i], omegas[i], survival[i], terminal_inv, scratch, out[i])
         out[i, MIN_DISTANCE_COLUMN] = nearest
         out[i, FRAGILE_COLUMN] = 1.0 if fragile else 0.0
 
 
 @numba.njit(parallel=True, cache=True, nogil=True, fastmath=False, error_model="numpy")
-def exact_costs(z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred, culled_radii,
+def exact_costs(z, p, c, fp, sdf, nf, pred, radii, velocities, starts, culled_pred, culled_radii,
                 end_centres, end_radii, end_velocities, poses, vs, omegas, targets, survival,
                 out, given, threads):
     """Roll out and cost every row of ``z`` (n, 4) on every core; results go into the outputs.
 
     With ``given`` the rollouts already in ``poses``, ``vs``, ``omegas`` are costed instead.
 
-    ``p`` is the parameter vector; ``pred``/``radii``/``velocities`` the kept circles (objects
-    contiguous, object ``o`` is ``starts[o]:starts[o+1]``); ``culled_*`` the circles beyond
-    reach (for the smallest distance only); ``end_*`` every circle at the horizon's end
-    (terminal time to collision). Outputs: ``poses`` (n, N+1, 3), ``vs``, ``omegas`` (n, N),
-    ``targets`` (n, 3), ``survival`` (n, N+1), ``out`` (n, len(OUT)).
+    ``p`` is the parameter vector, ``c`` the cost's numbers (``layout.cost_numbers``);
+    ``pred``/``radii``/``velocities`` the kept circles (objects contiguous, object ``o`` is
+    ``starts[o]:starts[o+1]``); ``culled_*`` the circles beyond reach (for the smallest
+    distance only); ``end_*`` every circle at the horizon's end (terminal time to collision).
+    Outputs: ``poses`` (n, N+1, 3), ``vs``, ``omegas`` (n, N), ``targets`` (n, 3),
+    ``survival`` (n, N+1), ``out`` (n, len(OUT)).
     """
     # One interleaved block of rows per thread (``threads``: numba's thread count, read by
     # the caller; read here it would keep the kernel out of the disk cache): the thread pool
@@ -207,20 +206,20 @@ def exact_costs(z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred,
     # (256 blocks left one thread with 256 rows and the other 144 in a 400-row batch).
     blocks = max(min(z.shape[0], threads), 1)
     for b in prange(blocks):
-        rows(b, blocks, z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred,
+        rows(b, blocks, z, p, c, fp, sdf, nf, pred, radii, velocities, starts, culled_pred,
               culled_radii, end_centres, end_radii, end_velocities, poses, vs, omegas, targets,
               survival, out, given)
 
 
 @numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
-def exact_costs_serial(z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred,
+def exact_costs_serial(z, p, c, fp, sdf, nf, pred, radii, velocities, starts, culled_pred,
                        culled_radii, end_centres, end_radii, end_velocities, poses, vs, omegas,
                        targets, survival, out, given, threads):
     """:func:`exact_costs` on the calling thread (``threads`` unused: one signature for both):
     for small batches, where waking the thread pool costs more than it saves."""
-    rows(0, 1, z, p, fp, sdf, nf, pred, radii, velocities, starts, culled_pred, culled_radii,
+    rows(0, 1, z, p, c, fp, sdf, nf, pred, radii, velocities, starts, culled_pred, culled_radii,
           end_centres, end_radii, end_velocities, poses, vs, omegas, targets, survival, out,
           given)
 
 
-__all__ = ["OUT", "exact_costs", "exact_costs_serial"]
+__all__ = ["OUT", "cost_numbers", "exact_costs", "exact_costs_serial"]

@@ -3,15 +3,22 @@ frozen by numba as constants), the output columns, and the compiler settings."""
 
 from __future__ import annotations
 
+import dataclasses
+import functools
+from collections import namedtuple
+
 import numba
 
-from ...core.cost_config import TERM_NAMES
+from ...core.cost_config import CostConfig
+from ...core.terms import TERM_NAMES, TERMS
 from ..cycle import PARAMETERS
 
 OUT = ("total", *TERM_NAMES, "min_distance", "inv_ttg", "inv_ttc_terminal", "fragile")
 """Columns of the kernel's per-trajectory output: the total, each term of the term table
 (``TERM_NAMES``, in its order), then what the evaluation reports beside the cost."""
 N_TERMS = len(TERM_NAMES)
+STEPWISE = tuple(term.over == "steps" for term in TERMS)
+"""For each term of the table: summed over the steps (True) or counted at the end (False)."""
 TOTAL_COLUMN = OUT.index("total")
 MIN_DISTANCE_COLUMN = OUT.index("min_distance")
 INV_TTG_COLUMN = OUT.index("inv_ttg")
@@ -53,9 +60,6 @@ SIGMA_STATIC = PARAMETERS.index('sigma_static')
 SIGMA_DYNAMIC = PARAMETERS.index('sigma_dynamic')
 A = PARAMETERS.index('a')
 S_TTC = PARAMETERS.index('s_ttc')
-S_TTG = PARAMETERS.index('s_ttg')
-C_V = PARAMETERS.index('c_v')
-C_W = PARAMETERS.index('c_w')
 ANTICIPATORY = PARAMETERS.index('anticipatory')
 TERMINAL = PARAMETERS.index('terminal')
 NF_GRID = PARAMETERS.index('nf_grid')
@@ -73,5 +77,18 @@ GOAL_TOL = PARAMETERS.index('goal_tol')
 CULL_SIGMAS = PARAMETERS.index('cull_sigmas')
 TTG_NF = PARAMETERS.index('ttg_nf')
 SIGMA_DYNAMIC_GROWTH = PARAMETERS.index('sigma_dynamic_growth')
+
+COST_FIELDS = tuple(field.name for field in dataclasses.fields(CostConfig)
+                    if field.type == "float")
+CostNumbers = namedtuple("CostNumbers", COST_FIELDS)
+"""The cost's numbers as the term formulas read them (``c.c_v``, ...) in the kernel: every
+float field of :class:`~dsmpepc_nlp.core.cost_config.CostConfig`."""
+
+
+@functools.lru_cache(maxsize=64)
+def cost_numbers(cost: CostConfig) -> CostNumbers:
+    """:data:`CostNumbers` of a configuration's cost (once per configuration)."""
+    return CostNumbers(*(float(getattr(cost, name)) for name in COST_FIELDS))
+
 
 jit = numba.njit(cache=False, fastmath=False, error_model="numpy")
