@@ -166,10 +166,11 @@ def test_compiled_newton_loop_takes_the_python_loops_steps(tmp_path, monkeypatch
     the Python loop with the SR1 Hessian: same iterations, evaluations, status and point
     (to rounding: numba's and numpy's 4 x 4 products may differ in the last bit)."""
     from dsmpepc_nlp.core.solver_config import SolverConfig
-    from dsmpepc_nlp.solve import newton, solvers
+    from dsmpepc_nlp.solve import newton, threads
+    from dsmpepc_nlp.solve import problem as problems
 
     _compile_into(tmp_path, monkeypatch)
-    problem = solvers.Problem(SMALL_CONFIG, SMALL_SIZES, SolverConfig())
+    problem = problems.Problem(SMALL_CONFIG, SMALL_SIZES, SolverConfig())
     assert problem.functions.compiled
     problem.bind(problem.pack(_small_cycle()))
     if newton._kernel() is None:
@@ -179,15 +180,21 @@ def test_compiled_newton_loop_takes_the_python_loops_steps(tmp_path, monkeypatch
                                        max_iter=25)       # all at once, on parallel threads
     assert len(natives) == len(starts)
     for z0, native in zip(starts, natives):
-        python = newton.minimize(problem.f, solvers.sr1(problem), z0, problem.lower,
+        python = newton.minimize(problem.f, newton.sr1(problem), z0, problem.lower,
                                  problem.upper, max_iter=25)
         assert (native.nit, native.nfev, native.nhev, native.status) == \
             (python.nit, python.nfev, python.nhev, python.status)
         np.testing.assert_allclose(native.x, python.x, atol=1e-9)
         assert native.fun == pytest.approx(python.fun, abs=1e-9)
     # No start up front, all of them listed by ``more``: the same solves, in order.
+    class Listing(threads.StartExecutor):
+        open_ended = True
+
+        def further(self, busy):
+            return list(starts)
+
     listed = newton.minimize_compiled(problem.functions, starts[:0], problem.lower,
-                                      problem.upper, max_iter=25, more=lambda busy: starts)
+                                      problem.upper, max_iter=25, executor=Listing(2))
     assert [(r.nit, r.status, r.fun) for r in listed] == \
         [(r.nit, r.status, r.fun) for r in natives]
     assert all(np.array_equal(a.x, b.x) for a, b in zip(listed, natives))
@@ -205,8 +212,8 @@ def test_compiled_newton_loop_takes_the_python_loops_steps(tmp_path, monkeypatch
         assert newton.minimize_compiled(problem.functions, starts, problem.lower,
                                         problem.upper) is None
     fast = SolverConfig.fast().replace(max_iter=25)
-    result = solvers.NewtonSolver(fast).solve(problem, starts[0])
-    python = newton.minimize(problem.f, solvers.sr1(problem), starts[0], problem.lower,
+    result = newton.NewtonSolver(fast).solve(problem, starts[0])
+    python = newton.minimize(problem.f, newton.sr1(problem), starts[0], problem.lower,
                              problem.upper, radius=fast.local.trust_radius, max_iter=25,
                              tol=fast.local.tol)
     assert result.nit == python.nit and result.fun == pytest.approx(python.fun, abs=1e-12)
@@ -218,22 +225,23 @@ def test_ipopt_solves_on_threads_are_the_solves_one_after_another(tmp_path, monk
     """``solve_threads``: each thread slot has its own nlpsol; every start, cold or warm,
     gives the same point, cost, iterations and status as when solved alone, in order."""
     from dsmpepc_nlp.core.solver_config import SolverConfig
-    from dsmpepc_nlp.solve import solvers
+    from dsmpepc_nlp.solve import ipopt
+    from dsmpepc_nlp.solve import problem as problems
 
     monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
     if compile_:
         monkeypatch.delenv("DSMPEPC_NO_COMPILE", raising=False)
     else:
         monkeypatch.setenv("DSMPEPC_NO_COMPILE", "1")
-    problem = solvers.Problem(SMALL_CONFIG, SMALL_SIZES, SolverConfig())
+    problem = problems.Problem(SMALL_CONFIG, SMALL_SIZES, SolverConfig())
     assert problem.functions.compiled == compile_
     problem.bind(problem.pack(_small_cycle()))
     starts = _random_z(SMALL_CONFIG, 5, 11)
-    one = solvers.IpoptSolver(SolverConfig().replace(solve_threads=1, max_iter=15))
+    one = ipopt.IpoptSolver(SolverConfig().replace(solve_threads=1, max_iter=15))
     warm = one.solve(problem, starts[0]).lam_x
     plan = [(z0, warm if i == 2 else None) for i, z0 in enumerate(starts)]
     alone = one.solve_many(problem, plan)
-    threaded = solvers.IpoptSolver(SolverConfig().replace(solve_threads=3, max_iter=15))
+    threaded = ipopt.IpoptSolver(SolverConfig().replace(solve_threads=3, max_iter=15))
     for _ in range(2):                       # the slots' nlpsol are reused on the second call
         together = threaded.solve_many(problem, plan)
         assert len(together) == len(plan)

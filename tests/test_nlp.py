@@ -219,13 +219,13 @@ def test_cost_function_has_named_terms():
 def test_hessian_is_finite_at_stop_and_in_collision():
     """The Hessian the solvers use is finite where v_max = 0 and where the robot overlaps a
     wall."""
-    from dsmpepc_nlp.solve import solvers
+    from dsmpepc_nlp.solve import problem as problems
 
     state, world, goal = _demo_cycle()
     inside = RobotState(0.4, 6.0, 0.0)                 # overlapping the outer wall at x = 0.2
     radius = CONFIG.robot.footprint[0][2]
     assert world.static_distance(np.array([inside.x, inside.y])) < radius - 0.05
-    problem = solvers.problem(CONFIG, SMALL, SolverConfig())
+    problem = problems.problem(CONFIG, SMALL, SolverConfig())
     for s, zi in ((state, [2.0, 0.0, 0.0, 0.0]), (inside, [2.0, 0.0, 0.0, 0.5])):
         problem.bind(problem.pack(Cycle.prepare(s, world, goal, CONFIG)))
         value, gradient, hessian = problem.fgh(np.array(zi))
@@ -320,7 +320,8 @@ def test_polishing_ahead_on_the_idle_thread_gives_the_same_plan(monkeypatch, met
     import time
 
     from dsmpepc_nlp.bench.scenes import demo_cycles
-    from dsmpepc_nlp.solve import ipopt, newton, threads
+    from dsmpepc_nlp.solve import threads
+    from dsmpepc_nlp.solve.threads import run_starts
 
     if compile_:
         _compile_afresh(monkeypatch)
@@ -337,10 +338,9 @@ def test_polishing_ahead_on_the_idle_thread_gives_the_same_plan(monkeypatch, met
             if i == total[0] - 1:
                 time.sleep(0.05)
             return solve(i, slot)
-        return threads.run_starts(late, n, slots, idle, None if more is None else listed)
+        return run_starts(late, n, slots, idle, None if more is None else listed)
 
-    for module in (ipopt, newton):
-        monkeypatch.setattr(module, "run_starts", last_start_late)
+    monkeypatch.setattr(threads, "run_starts", last_start_late)
     ahead_rounds = []
     knobs = dict(n_spread=2, max_iter=4, n_screen=16, n_solved=3, solve_threads=2,
                  polish_rounds=4, polish_margin=np.inf, **BUCKETS)   # solves stopped short
@@ -371,7 +371,8 @@ def test_screening_while_the_warm_start_solves_gives_the_same_plan(monkeypatch, 
     import time
 
     from dsmpepc_nlp.bench.scenes import demo_cycles
-    from dsmpepc_nlp.solve import ipopt, newton, threads
+    from dsmpepc_nlp.solve import threads
+    from dsmpepc_nlp.solve.threads import run_starts
 
     if compile_:
         _compile_afresh(monkeypatch)
@@ -396,10 +397,9 @@ def test_screening_while_the_warm_start_solves_gives_the_same_plan(monkeypatch, 
             with lock:
                 events.append(f"solve {i}")
             return solve(i, slot)
-        return threads.run_starts(run, n, slots, idle, more)
+        return run_starts(run, n, slots, idle, more)
 
-    for module in (ipopt, newton):
-        monkeypatch.setattr(module, "run_starts", recorded)
+    monkeypatch.setattr(threads, "run_starts", recorded)
     knobs = dict(n_spread=2, max_iter=4, n_screen=32, n_solved=3, solve_threads=2,
                  **BUCKETS)
     make = SolverConfig.fast if method == "newton" else SolverConfig
@@ -445,11 +445,12 @@ def test_the_screen_keeps_both_cores_unless_a_solve_runs_beside_it(monkeypatch, 
 
 @pytest.mark.parametrize("hessian", ["differences", "quasi-newton"])
 def test_both_solvers_lower_the_smooth_cost_from_their_start(hessian):
+    from dsmpepc_nlp.solve import problem as problems
     from dsmpepc_nlp.solve import solvers
 
     state, world, goal = _demo_cycle()
     cycle = Cycle.prepare(state, world, goal, CONFIG)
-    problem = solvers.problem(CONFIG, SMALL, SolverConfig())
+    problem = problems.problem(CONFIG, SMALL, SolverConfig())
     problem.bind(problem.pack(cycle))
     z0 = np.array([2.0, 0.3, -0.2, 0.6])
     for config in (SolverConfig().replace(hessian=hessian, max_iter=15),

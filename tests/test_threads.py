@@ -91,3 +91,28 @@ def test_one_thread_lists_the_further_starts_after_its_own():
 
     assert run_starts(lambda i, slot: (i, slot), 1, 1, more=more) == [(0, 0), (1, 0), (2, 0)]
     assert alone == [True]                       # nothing solved while it listed
+
+
+def test_an_executor_lists_further_starts_once_and_keeps_them_for_a_second_loop():
+    """``StartExecutor``: the starts it is given, then the ones ``further`` lists (once, by
+    the first thread left without a start), in order; a second ``map`` without starts (a
+    solver falling back to another loop) runs all of them again without listing again."""
+    from dsmpepc_nlp.solve.threads import StartExecutor
+
+    asked = []
+
+    class Listing(StartExecutor):
+        open_ended = True
+
+        def further(self, busy):
+            asked.append(busy)
+            return ["c", "d"]
+
+    executor = Listing(2)
+    assert executor.slots(1) == 2
+    assert executor.map(lambda start, slot: start.upper(), ["a", "b"]) == ["A", "B", "C", "D"]
+    assert executor.map(lambda start, slot: (start, slot), threads=1) == \
+        [("a", 0), ("b", 0), ("c", 0), ("d", 0)]
+    assert len(asked) == 1
+    plain = StartExecutor(4)
+    assert plain.slots(2) == 2 and plain.map(lambda start, slot: start, [1, 2, 3]) == [1, 2, 3]

@@ -150,7 +150,7 @@ def _finite(fx, g, H):  # pragma: no cover
 def minimize_sr1(f_fn, f_buf, f_in, f_out, g_fn, g_buf, g_in, g_out, g_grad,  # pragma: no cover
                  h_fn, h_buf, h_in, h_out, h_grad, h_hess, x0, lower, upper, radius,
                  max_iter, tol, min_radius, at_low, at_up, subset, both, pad):
-    """``newton.minimize`` with ``solvers.sr1``'s Hessian, evaluation for evaluation, on the
+    """``newton.minimize`` with ``newton.sr1``'s Hessian, evaluation for evaluation, on the
     compiled F, G, H (``*_fn`` ctypes function pointers, ``*_buf`` their work addresses,
     ``*_in`` the z buffer they read, ``*_out``/``*_grad``/``*_hess`` the buffers they write).
 

@@ -19,7 +19,7 @@ import numpy as np
 from ..core.errors import InputError
 from ..core.solver_config import SolverConfig
 from .problem import Problem, SolveResult, snap
-from .threads import run_starts
+from .threads import StartExecutor
 
 _QUIET_IPOPT = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes"}
 
@@ -82,34 +82,25 @@ class IpoptSolver:
             self._built[key] = _build_ipopt(problem, self.solver, warm)
         return self._built[key]
 
-    def solve_many(self, problem: Problem, starts, idle=None, more=None) -> list:
-        """:meth:`solve` from every ``(z0, lam_x)`` of ``starts``, in their order.
+    def solve_many(self, problem: Problem, starts, executor: StartExecutor | None = None) -> list:
+        """:meth:`solve` from every ``(z0, lam_x)`` of ``starts``, in their order, then from
+        every start the ``executor`` adds (:class:`.threads.StartExecutor`; by default one on
+        ``ParallelSettings.solve_threads`` threads).
 
-        With ``ParallelSettings.solve_threads`` above 1 the solves run at once on that many
-        threads (each thread slot its own ``nlpsol``; CasADi lets go of Python's lock while
-        IPOPT runs); each start is solved exactly as it would be alone.
-
-        ``more(busy)``: the further starts (a list of ``(z0, lam_x)``), asked for by the first
-        thread left without a start, while the others solve (:func:`.threads.run_starts`);
-        their results follow. ``idle``: work for a thread left without a start while another
-        solves (:func:`.threads.run_starts`).
+        With more than one thread the solves run at once (each thread slot its own ``nlpsol``;
+        CasADi lets go of Python's lock while IPOPT runs); each start is solved exactly as it
+        would be alone.
         """
         starts = list(starts)
-        threads = self.solver.parallel.solve_threads
-        slots = threads if more is not None else min(threads, len(starts))
-        variants = {False, True} if more is not None else \
+        if executor is None:
+            executor = StartExecutor(self.solver.parallel.solve_threads)
+        slots = executor.slots(len(starts))
+        variants = {False, True} if executor.open_ended else \
             {lam_x is not None for _, lam_x in starts}
         for slot in range(slots if slots > 1 else 0):   # built here, not in the threads:
             for warm in variants:                         # building is not thread-safe
                 self._nlpsol(problem, warm, slot)
-
-        def listed(busy):
-            extra = list(more(busy))
-            starts.extend(extra)
-            return len(extra)
-
-        return run_starts(lambda i, slot: self.solve(problem, *starts[i], slot=slot),
-                          len(starts), max(slots, 1), idle, None if more is None else listed)
+        return executor.map(lambda start, slot: self.solve(problem, *start, slot=slot), starts)
 
     def solve(self, problem: Problem, z0, lam_x=None, slot: int = 0) -> SolveResult:
         """Minimise from ``z0``, warm-started from ``lam_x`` when given (``slot``: which

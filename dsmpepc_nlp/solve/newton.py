@@ -7,18 +7,25 @@ with numba, :mod:`._newton_kernel`; the numpy definition :func:`box_qp_reference
 so an indefinite Hessian needs no convexification, and every accepted step decreases the
 objective (no non-monotone merit function). The objective, its gradient and its exact Hessian
 come from one CasADi ``Function`` call; a trial point costs one objective call.
+
+:func:`minimize` is the definition (Python); :class:`CompiledLoop` runs the same steps compiled
+(with :func:`sr1`'s quasi-Newton Hessian); :class:`NewtonSolver` is the backend the multistart
+calls (``SolverConfig.fast()``), ``solve_many(problem, starts, executor)`` like IPOPT's.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.solver_config import SolverConfig
 from .cache import compile_enabled, numba_folder, warn_once
-from .threads import run_starts
+from .problem import Problem, SolveResult, snap
+from .threads import StartExecutor
 
 _FACES = {}
 _KERNEL = {}
@@ -214,62 +221,161 @@ def minimize(f, fgh, x0, lower, upper, *, radius=0.25, max_iter=40, tol=1e-5,
 _STATUS = ("converged", "max_iter", "small_radius", "non-finite")
 
 
-def minimize_compiled(functions, x0, lower, upper, *, radius=0.25, max_iter=40, tol=1e-5,
-                      min_radius=1e-4, threads: int = 2, idle=None, more=None) -> list | None:
-    """:func:`minimize` with ``solvers.sr1``'s quasi-Newton Hessian from every row of ``x0``
-    (k, n), the whole loop compiled and the starts on ``threads`` parallel threads.
+class CompiledLoop:
+    """:func:`minimize` with ``newton.sr1``'s quasi-Newton Hessian, the whole loop compiled
+    (:func:`._newton_kernel.minimize_sr1`, numba, letting go of Python's lock): it calls the
+    generated F, G and H of ``functions`` (a :class:`~dsmpepc_nlp.solve.compiled.Compiled`
+    with its parameters bound) itself, no Python per evaluation. ``slots`` threads may solve
+    at once, each with its own buffers; each start takes the same steps as in the Python loop
+    (a test holds them together). Made by :func:`compiled_loop`."""
 
-    ``functions`` is a :class:`~dsmpepc_nlp.solve.compiled.Compiled` with its parameters
-    bound; the loop (:func:`._newton_kernel.minimize_sr1`, numba, letting go of Python's lock)
-    calls the generated F, G and H itself: no Python per evaluation. Each thread has its own
-    buffers and each start takes the same steps as in the Python loop (a test holds them
-    together); the starts are shared out by :func:`.threads.run_starts` (``idle`` as there;
-    ``more(busy)``, the further starts, a list of rows, asked for by the first thread left
-    without a start). Returns one :class:`NewtonResult` per start, or None when the loop
-    cannot run compiled (no numba, compilation off, or the functions on CasADi's virtual
-    machine): use :func:`minimize`.
-    """
-    module = _kernel()
-    if module is None or _KERNEL.get("loop_failed"):
-        return None
-    lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
-    starts = list(np.asarray(x0, dtype=float).reshape(-1, len(lower)))    # none: zero rows
-    slots = max(1, int(threads) if more is not None else min(int(threads), len(starts)))
-    natives = [functions.native(name, slots) for name in ("F", "G", "H")]
-    if any(n is None for n in natives):
-        return None
-    (f_fn, f_buf, f_in, f_out), (g_fn, g_buf, g_in, g_out), (h_fn, h_buf, h_in, h_out) = natives
-    faces = _faces(len(lower))
+    def __init__(self, module, natives, lower, upper, knobs):
+        self.module, self.natives, self.lower, self.upper = module, natives, lower, upper
+        self.knobs = knobs
+        self.faces = _faces(len(lower))
 
-    def solve(s, t):        # start s on thread slot t (its buffers)
+    def solve(self, x0, slot: int = 0) -> NewtonResult:
+        """Minimise from ``x0`` on thread slot ``slot``'s buffers (raises :class:`LoopFailed`
+        when the compiled loop itself fails, e.g. a numba that cannot type the call)."""
+        (f_fn, f_buf, f_in, f_out), (g_fn, g_buf, g_in, g_out), (h_fn, h_buf, h_in, h_out) = \
+            self.natives
+        t, k = slot, self.knobs
         try:
-            x, fun, nit, status, nfev, nhev = module.minimize_sr1(
+            x, fun, nit, status, nfev, nhev = self.module.minimize_sr1(
                 f_fn, f_buf[t], f_in[t], f_out[0][t], g_fn, g_buf[t], g_in[t], g_out[0][t],
                 g_out[1][t], h_fn, h_buf[t], h_in[t], h_out[0][t], h_out[1][t], h_out[2][t],
-                starts[s], lower, upper, float(radius), int(max_iter), float(tol),
-                float(min_radius), *faces)
+                np.asarray(x0, dtype=float), self.lower, self.upper, float(k["radius"]),
+                int(k["max_iter"]), float(k["tol"]), float(k["min_radius"]), *self.faces)
         except Exception as error:  # noqa: BLE001 - e.g. a numba that cannot type the call
-            raise _LoopFailed(f"{type(error).__name__}: {str(error)[:200]}") from error
+            _KERNEL["loop_failed"] = True
+            warn_once("newton-loop", f"the compiled Newton loop failed ({type(error).__name__}: "
+                      f"{str(error)[:200]}): the Python loop runs (slower)")
+            raise LoopFailed(str(error)[:200]) from error
         status = _STATUS[status]
         return NewtonResult(np.array(x), float(fun), int(nit), status, status == "converged",
                             int(nfev), int(nhev))
 
-    def listed(busy):
-        extra = [np.asarray(row, dtype=float) for row in more(busy)]
-        starts.extend(extra)
-        return len(extra)
 
+def compiled_loop(functions, lower, upper, slots: int = 1, *, radius=0.25, max_iter=40,
+                  tol=1e-5, min_radius=1e-4) -> CompiledLoop | None:
+    """The :class:`CompiledLoop` for ``functions`` on ``slots`` threads, or None when the loop
+    cannot run compiled (no numba, compilation off, an earlier failure, or the functions on
+    CasADi's virtual machine): use :func:`minimize`."""
+    module = _kernel()
+    if module is None or _KERNEL.get("loop_failed"):
+        return None
+    natives = [functions.native(name, max(1, int(slots))) for name in ("F", "G", "H")]
+    if any(n is None for n in natives):
+        return None
+    return CompiledLoop(module, natives, np.asarray(lower, dtype=float),
+                        np.asarray(upper, dtype=float),
+                        dict(radius=radius, max_iter=max_iter, tol=tol, min_radius=min_radius))
+
+
+def minimize_compiled(functions, x0, lower, upper, *, executor: StartExecutor | None = None,
+                      threads: int = 2, **knobs) -> list | None:
+    """:meth:`CompiledLoop.solve` from every row of ``x0`` (k, n), then from every row the
+    ``executor`` adds (:class:`.threads.StartExecutor`; by default one on ``threads``
+    threads), in order: one :class:`NewtonResult` each, or None when the loop cannot run
+    compiled (:func:`compiled_loop`) or failed."""
+    starts = list(np.asarray(x0, dtype=float).reshape(-1, len(lower)))    # none: zero rows
+    executor = StartExecutor(threads) if executor is None else executor
+    loop = compiled_loop(functions, lower, upper, executor.slots(len(starts)), **knobs)
+    if loop is None:
+        return None
     try:
-        return run_starts(solve, len(starts), slots, idle, None if more is None else listed)
-    except _LoopFailed as failure:
-        _KERNEL["loop_failed"] = True
-        warn_once("newton-loop", f"the compiled Newton loop failed ({failure}): the Python "
-                  "loop runs (slower)")
+        return executor.map(lambda x, slot: loop.solve(x, slot), starts)
+    except LoopFailed:
         return None
 
 
-class _LoopFailed(RuntimeError):
-    """The compiled loop itself failed (not the ``idle`` work it lent a thread to)."""
+class LoopFailed(RuntimeError):
+    """The compiled loop itself failed (not the idle work its thread was lent)."""
 
 
-__all__ = ["NewtonResult", "box_qp", "box_qp_reference", "minimize", "minimize_compiled"]
+def sr1(problem: Problem):
+    """``fgh`` for :func:`~dsmpepc_nlp.solve.newton.minimize` with a quasi-Newton Hessian: the
+    compiled (finite-difference) Hessian at the start, then symmetric rank-one updates from the
+    gradients at the accepted points (one compiled gradient per step instead of five)."""
+    state = {}
+
+    def fgh(z):
+        if not state:
+            value, gradient, hessian = problem.fgh(z)
+        else:
+            value, gradient = problem.fg(z)
+            step, change = z - state["z"], gradient - state["g"]
+            hessian = state["H"].copy()
+            residual = change - hessian @ step
+            denominator = float(residual @ step)
+            if abs(denominator) > 1e-8 * np.linalg.norm(step) * np.linalg.norm(residual):
+                hessian += np.outer(residual, residual) / denominator
+        state.update(z=np.array(z, dtype=float), g=gradient, H=hessian)
+        return value, gradient, hessian
+    return fgh
+
+
+class NewtonSolver:
+    """The trust-region Newton method on a :class:`Problem` (parameters already bound);
+    ``hessian="quasi-newton"``: symmetric rank-one updates (:func:`sr1`)."""
+
+    def __init__(self, solver: SolverConfig):
+        self.solver = solver
+
+    def solve(self, problem: Problem, z0, lam_x=None) -> SolveResult:
+        """Minimise from ``z0``; ``lam_x`` is ignored (no multipliers to warm)."""
+        return self.solve_many(problem, [(z0, lam_x)])[0]
+
+    def solve_many(self, problem: Problem, starts, executor: StartExecutor | None = None) -> list:
+        """Minimise from every ``(z0, lam_x)`` of ``starts`` (``lam_x`` ignored), then from
+        every start the ``executor`` adds (:class:`.threads.StartExecutor`; by default one on
+        ``ParallelSettings.solve_threads`` threads).
+
+        With the quasi-Newton Hessian on compiled functions the starts run at once on the
+        executor's threads, the loop compiled (:class:`CompiledLoop`; each result's ``time_s``
+        is the time from the batch's start to its end); else one after another in the Python
+        loop, its definition (on one thread: none is left idle).
+        """
+        started = time.perf_counter()
+        local = self.solver.local
+        knobs = dict(radius=local.trust_radius, max_iter=local.max_iter, tol=local.tol)
+        starts = list(starts)
+        if executor is None:
+            executor = StartExecutor(self.solver.parallel.solve_threads)
+        loop = None
+        if local.hessian == "quasi-newton":
+            loop = compiled_loop(problem.functions, problem.lower, problem.upper,
+                                 executor.slots(len(starts)), **knobs)
+        if loop is not None:
+            def solve(start, slot):
+                z0 = np.asarray(start[0], dtype=float)
+                result = loop.solve(z0, slot)
+                return self._result(problem, z0, result, time.perf_counter() - started)
+            try:
+                return executor.map(solve, starts)
+            except LoopFailed:      # warned once; the Python loop solves every start
+                starts = None
+
+        def python(start, slot):
+            z0 = np.asarray(start[0], dtype=float)
+            begun = time.perf_counter()
+            fgh = sr1(problem) if local.hessian == "quasi-newton" else problem.fgh
+            result = minimize(problem.f, fgh, z0, problem.lower, problem.upper, **knobs)
+            return self._result(problem, z0, result, time.perf_counter() - begun)
+
+        return executor.map(python, starts, threads=1)
+
+    @staticmethod
+    def _result(problem, z0, result, elapsed) -> SolveResult:
+        counts = dict(nfev=result.nfev, ngev=result.nhev)
+        if not (np.all(np.isfinite(result.x)) and math.isfinite(result.fun)):
+            return SolveResult(z0, math.nan, f"non-finite result ({result.status})", False,
+                               result.nit, elapsed, **counts)
+        return SolveResult(snap(result.x, problem.lower, problem.upper), result.fun,
+                           result.status, result.status != "non-finite", result.nit, elapsed,
+                           **counts)
+
+
+
+__all__ = ["CompiledLoop", "LoopFailed", "NewtonResult", "NewtonSolver", "box_qp",
+           "box_qp_reference", "compiled_loop", "minimize", "minimize_compiled", "sr1"]

@@ -22,15 +22,33 @@ import numpy as np
 from ..core.config import PlannerConfig
 from ..core.solver_config import SolverConfig
 from . import exact, graph, solvers
+from . import problem as problems
 from .evaluator import Evaluator
-from .graph import PARAMETER_NAMES, GraphSizes, pack_parameters, parameter_shapes
+from .graph import GraphSizes
 from .polish import Polish
 from .problem import readiness
 from .records import StartRecord
 from .starts import box_samples
+from .threads import StartExecutor
 
-__all__ = ["NlpSolver", "pack_parameters", "GraphSizes", "PARAMETER_NAMES",
-           "parameter_shapes"]
+
+class Overlap(StartExecutor):
+    """The multistart's executor (:class:`.threads.StartExecutor`): the solver runs the starts
+    it is given, and meanwhile ``further(busy)`` (the screen of the other starts, on one core
+    while the warm start solves) lists the starts that follow, and ``ahead(done, busy)`` (the
+    polish ahead, :meth:`.polish.Polish.ahead`) uses a thread left without a start."""
+
+    def __init__(self, threads: int, further=None, ahead=None):
+        super().__init__(threads)
+        self._further = further
+        self.open_ended = further is not None
+        self.idle_work = ahead
+
+    def further(self, busy: bool) -> list:
+        return self._further(busy)
+
+
+__all__ = ["NlpSolver", "Overlap"]
 
 
 class NlpSolver:
@@ -127,13 +145,13 @@ class NlpSolver:
         every = [dataclasses.replace(self.sizes, pose_objects=bucket) for bucket in buckets]
         solvers.compile_missing([(self.config, sizes) for sizes in every], self.solver_config)
         for sizes in every:
-            self._seen.add(solvers.problem(self.config, sizes, self.solver_config))
+            self._seen.add(problems.problem(self.config, sizes, self.solver_config))
         return time.perf_counter() - started
 
-    def problem(self, cycle) -> solvers.Problem:
+    def problem(self, cycle) -> problems.Problem:
         """The compiled problem for ``cycle`` (built or loaded on first use)."""
         started = time.perf_counter()
-        problem = solvers.problem(self.config, self.sizes_for(cycle), self.solver_config)
+        problem = problems.problem(self.config, self.sizes_for(cycle), self.solver_config)
         if problem not in self._seen:
             self._seen.add(problem)
             self.build_s += time.perf_counter() - started
@@ -214,26 +232,27 @@ class NlpSolver:
         # ``screen_ahead`` it starts at once and a second thread screens meanwhile, then
         # takes the best distinct others: every solve and record is the same, earlier.
         first = [i for i, (name, _) in enumerate(named) if name == "warm"]
-        more = None
         parallel = self.solver_config.parallel
+        further = None
         if first and parallel.screen_ahead and parallel.solve_threads > 1:
-            def more(busy):     # on one core while the warm start solves on the other
+            def further(busy):     # on one core while the warm start solves on the other
                 screen(one_thread=busy)
-                return [named[i] for i in chosen[1:]]
+                return [self._start(*named[i]) for i in chosen[1:]]
         else:
             screen()
             first = chosen
         best_cost, best_lam = math.inf, None
         walks = {}
-        idle = None
+        ahead = None
         if parallel.polish_ahead and not self.kernel_loading:
-            def idle(done, busy):       # called once the screen is done (threads.run_starts)
-                ahead = list(listed())
+            def ahead(done, busy):       # once the screen is done (threads.run_starts)
+                guesses = list(listed())
                 for index, result in done.items():
-                    ahead[chosen[index]] = self._solved_record(named[chosen[index]], result)
-                self._verdicts(ahead, evaluator, one_thread=True)
-                self.polish.ahead(ahead, evaluator, walks, busy)
-        results = self._run(problem, [named[i] for i in first], idle, more)
+                    guesses[chosen[index]] = self._solved_record(named[chosen[index]], result)
+                self._verdicts(guesses, evaluator, one_thread=True)
+                self.polish.ahead(guesses, evaluator, walks, busy)
+        results = self._solver.solve_many(problem, [self._start(*named[i]) for i in first],
+                                          Overlap(parallel.solve_threads, further, ahead))
         listed()
         for i, result in zip(chosen, results):
             name, z0 = named[i]
@@ -269,14 +288,7 @@ class NlpSolver:
                 records[i] = dataclasses.replace(records[i], exact_cost=float(cost))
 
 
-    def _run(self, problem, named, idle=None, more=None) -> list:
-        """The solves from every ``(name, z0)`` of ``named`` and then of ``more(busy)`` (the
-        warm start reuses the last plan's multipliers), one
-        :class:`~dsmpepc_nlp.solve.solvers.SolveResult` each; ``idle`` and ``more`` as in
-        :meth:`.ipopt.IpoptSolver.solve_many`."""
-        def start(name, z0):
-            return z0, self._lam_x if name == "warm" else None
-
-        return self._solver.solve_many(
-            problem, [start(*n) for n in named], idle=idle,
-            more=None if more is None else lambda busy: [start(*n) for n in more(busy)])
+    def _start(self, name, z0) -> tuple:
+        """The solver's start ``(z0, lam_x)`` for a named start: the warm start reuses the last
+        plan's multipliers."""
+        return z0, self._lam_x if name == "warm" else None

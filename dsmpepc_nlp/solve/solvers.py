@@ -1,21 +1,22 @@
-"""The NLP's solvers, built once per configuration, on the compiled global graph.
+"""The NLP's solvers by name, and every problem built ahead of use.
 
 The problem (:class:`~dsmpepc_nlp.solve.problem.Problem`: the graph compiled, parameters bound
-once per cycle) is solved by
+once per cycle) is solved by one backend, one file each, made here (:func:`make_solver`, the
+one place that names them):
 
-- :class:`NewtonSolver`, the trust-region Newton method of :mod:`~dsmpepc_nlp.solve.newton`
-  (``SolverConfig.fast()``), one compiled call per evaluation;
-- :class:`~dsmpepc_nlp.solve.ipopt.IpoptSolver`, CasADi's ``nlpsol("ipopt")`` whose objective
-  and gradient are the compiled functions, warm-startable;
+- ``"newton"``: :class:`~dsmpepc_nlp.solve.newton.NewtonSolver`, the trust-region Newton
+  method (``SolverConfig.fast()``), its loop compiled;
+- ``"ipopt"``: :class:`~dsmpepc_nlp.solve.ipopt.IpoptSolver`, CasADi's ``nlpsol("ipopt")``
+  whose objective and gradient are the compiled functions, warm-startable;
 
-each returning a typed :class:`~dsmpepc_nlp.solve.problem.SolveResult`. The graph is valid at
+each with ``solve_many(problem, starts, executor) -> list[SolveResult]``
+(:class:`~dsmpepc_nlp.solve.threads.StartExecutor` runs the starts). The graph is valid at
 every z, so there is no re-linearisation: one solve per start.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 
 import numpy as np
@@ -27,98 +28,8 @@ from ..core.world import World
 from . import graph
 from .cycle import Cycle
 from .ipopt import IpoptSolver
-from .newton import minimize, minimize_compiled
-from .problem import Problem, SolveResult, problem, snap
-
-
-def sr1(problem: Problem):
-    """``fgh`` for :func:`~dsmpepc_nlp.solve.newton.minimize` with a quasi-Newton Hessian: the
-    compiled (finite-difference) Hessian at the start, then symmetric rank-one updates from the
-    gradients at the accepted points (one compiled gradient per step instead of five)."""
-    state = {}
-
-    def fgh(z):
-        if not state:
-            value, gradient, hessian = problem.fgh(z)
-        else:
-            value, gradient = problem.fg(z)
-            step, change = z - state["z"], gradient - state["g"]
-            hessian = state["H"].copy()
-            residual = change - hessian @ step
-            denominator = float(residual @ step)
-            if abs(denominator) > 1e-8 * np.linalg.norm(step) * np.linalg.norm(residual):
-                hessian += np.outer(residual, residual) / denominator
-        state.update(z=np.array(z, dtype=float), g=gradient, H=hessian)
-        return value, gradient, hessian
-    return fgh
-
-
-class NewtonSolver:
-    """The trust-region Newton method on a :class:`Problem` (parameters already bound);
-    ``hessian="quasi-newton"``: symmetric rank-one updates (:func:`sr1`)."""
-
-    def __init__(self, solver: SolverConfig):
-        self.solver = solver
-
-    def solve(self, problem: Problem, z0, lam_x=None) -> SolveResult:
-        """Minimise from ``z0``; ``lam_x`` is ignored (no multipliers to warm)."""
-        return self.solve_many(problem, [(z0, lam_x)])[0]
-
-    def solve_many(self, problem: Problem, starts, idle=None, more=None) -> list:
-        """Minimise from every ``(z0, lam_x)`` of ``starts`` (``lam_x`` ignored), then from
-        every start ``more(busy)`` lists.
-
-        With the quasi-Newton Hessian on compiled functions the starts run at once on
-        ``ParallelSettings.solve_threads`` threads, the loop compiled
-        (:func:`.newton.minimize_compiled`; each result's ``time_s`` is then the batch's wall
-        time; ``idle`` and ``more`` as in :func:`.threads.run_starts`); else one after
-        another in the Python loop, its definition (no thread is left idle there: ``idle`` is
-        not called; ``more`` is asked for first).
-        """
-        started = time.perf_counter()
-        local = self.solver.local
-        knobs = dict(radius=local.trust_radius, max_iter=local.max_iter, tol=local.tol)
-        z0s = [np.asarray(z0, dtype=float) for z0, _ in starts]
-        listing = []
-
-        def listed(busy):           # once, even when the compiled loop fails after asking
-            if not listing:
-                listing.append([np.asarray(z0, dtype=float) for z0, _ in more(busy)])
-                z0s.extend(listing[0])
-            return listing[0]
-
-        if self.solver.local.hessian == "quasi-newton":
-            def lent(done, busy):     # the idle thread sees results as the solver gives them
-                elapsed = time.perf_counter() - started
-                idle({i: self._result(problem, z0s[i], r, elapsed) for i, r in done.items()},
-                     busy)
-
-            results = minimize_compiled(problem.functions, np.array(z0s), problem.lower,
-                                        problem.upper, threads=self.solver.parallel.solve_threads,
-                                        idle=None if idle is None else lent,
-                                        more=None if more is None else listed, **knobs)
-            if results is not None:
-                elapsed = time.perf_counter() - started
-                return [self._result(problem, z0, r, elapsed) for z0, r in zip(z0s, results)]
-        if more is not None:
-            listed(False)
-        out = []
-        for z0 in z0s:
-            begun = time.perf_counter()
-            fgh = sr1(problem) if self.solver.local.hessian == "quasi-newton" else problem.fgh
-            result = minimize(problem.f, fgh, z0, problem.lower, problem.upper, **knobs)
-            out.append(self._result(problem, z0, result, time.perf_counter() - begun))
-        return out
-
-    @staticmethod
-    def _result(problem, z0, result, elapsed) -> SolveResult:
-        counts = dict(nfev=result.nfev, ngev=result.nhev)
-        if not (np.all(np.isfinite(result.x)) and math.isfinite(result.fun)):
-            return SolveResult(z0, math.nan, f"non-finite result ({result.status})", False,
-                               result.nit, elapsed, **counts)
-        return SolveResult(snap(result.x, problem.lower, problem.upper), result.fun,
-                           result.status, result.status != "non-finite", result.nit, elapsed,
-                           **counts)
+from .newton import NewtonSolver, minimize_compiled
+from .problem import Problem, problem
 
 
 def build_problems(variants=None, solver: SolverConfig | None = None, workers: int | None = None,
@@ -206,5 +117,4 @@ def make_solver(solver: SolverConfig):
                      "'newton'")
 
 
-__all__ = ["IpoptSolver", "NewtonSolver", "Problem", "SolveResult", "build_problems", "make_solver",
-           "problem", "snap", "sr1"]
+__all__ = ["build_problems", "compile_missing", "make_solver"]

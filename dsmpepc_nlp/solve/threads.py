@@ -1,10 +1,12 @@
 """The solves of one plan on parallel threads, and the idle thread they leave.
 
-Both solvers run a plan's starts here (:func:`run_starts`): IPOPT, whose ``nlpsol`` lets go
-of Python's lock while it runs, and the fast method's compiled loop (numba, ``nogil``). Each
-thread takes the next start when it is free. Three starts on two threads end with one thread
-waiting for the last solve; the multistart lends it work (``idle``: the polish ahead, see
-:mod:`.nlp`).
+Both solvers hand their per-start solve to a :class:`StartExecutor` (``solve_many(problem,
+starts, executor)``): IPOPT, whose ``nlpsol`` lets go of Python's lock while it runs, and the
+fast method's compiled loop (numba, ``nogil``). Each thread takes the next start when it is
+free. A solver knows nothing of what else the plan does meanwhile: the multistart injects an
+executor of its own (:class:`~dsmpepc_nlp.solve.nlp.Overlap`) that lists further starts while
+the first one solves (the screen) and lends a thread left without a start work (the polish
+ahead): three starts on two threads end with one thread waiting for the last solve.
 """
 
 from __future__ import annotations
@@ -96,4 +98,49 @@ def run_starts(solve, n: int, slots: int, idle=None, more=None) -> list:
     return results
 
 
-__all__ = ["pool", "run_starts"]
+class StartExecutor:
+    """Runs a solver's solves of a plan's starts on up to ``threads`` threads (:func:`run_starts`),
+    in the order of the starts. This one runs just the starts it is given; a subclass may list
+    further starts (:meth:`further`) and use a thread left idle (:meth:`idle`)."""
+
+    open_ended = False
+    """True when :meth:`further` may add starts (a solver then prepares for ``threads``)."""
+
+    def __init__(self, threads: int = 1):
+        self.threads = max(1, int(threads))
+        self.starts = []
+        self._listed = False
+
+    def slots(self, n: int) -> int:
+        """Threads a batch of ``n`` starts runs on."""
+        return self.threads if self.open_ended else max(1, min(self.threads, n))
+
+    def map(self, solve, starts=None, threads: int | None = None) -> list:
+        """``solve(start, slot)`` for every start, then for every further start, in order, on
+        :meth:`slots` threads (or ``threads``); one result each. The starts are kept: a second
+        call without ``starts`` (a solver falling back to another loop) runs the same ones,
+        the further ones included, without listing them again."""
+        if starts is not None:
+            self.starts = list(starts)
+        listing = None
+        if self.open_ended and not self._listed:
+            def listing(busy):
+                self._listed = True
+                extra = list(self.further(busy))
+                self.starts.extend(extra)
+                return len(extra)
+        slots = self.slots(len(self.starts)) if threads is None else max(1, int(threads))
+        return run_starts(lambda i, slot: solve(self.starts[i], slot), len(self.starts), slots,
+                          self.idle_work, listing)
+
+    def further(self, busy: bool) -> list:
+        """The starts that follow the given ones (called once, by the first thread left
+        without a start; ``busy``: whether a solve still runs meanwhile)."""
+        return []
+
+    idle_work = None
+    """``idle_work(done, busy)``, when set: work for a thread left without a start while
+    another solves (``done``: the results so far by index; see :func:`run_starts`)."""
+
+
+__all__ = ["StartExecutor", "pool", "run_starts"]
