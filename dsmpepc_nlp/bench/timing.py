@@ -74,15 +74,14 @@ def run_bench(n_cycles: int = 20, seed: int = 0, config: PlannerConfig | None = 
         planner = Planner(config, solver, compile="wait")
         build_s = time.perf_counter() - started
         times, costs, overheads, in_solver, solves, gains = [], [], [], [], [], []
-        spent = _solver_clock(planner)
         for state, world, goal in cycles:
-            if spent:
-                spent[0] = 0.0
+            before = planner.nlp.solver_s if planner.nlp is not None else np.nan
             plan = planner.plan(state, world, goal, dock=False)
+            spent = (planner.nlp.solver_s if planner.nlp is not None else np.nan) - before
             times.append(plan.wall_time)
             costs.append(plan.fun)
-            overheads.append(plan.wall_time - spent[0] if spent else np.nan)
-            in_solver.append(spent[0] if spent else np.nan)
+            overheads.append(plan.wall_time - spent)
+            in_solver.append(spent)
             solves.append(list(planner.nlp.last_stats) if planner.nlp is not None else [])
             gains.append(polish_gain(plan.starts))
         # The compiled graph is built (or loaded) on the first plan of each object bucket.
@@ -241,25 +240,6 @@ def exact_timing(cycles, config: PlannerConfig, seed: int = 0, n: int = 4096,
     for name in ("exact_us_per_trajectory", "exact_cpu_us_per_trajectory", "sampling_4096_ms"):
         result[f"{name}_speedup"] = result[f"{name}_numpy"] / result[name]
     return result
-
-
-def _solver_clock(planner) -> list:
-    """Time spent inside the NLP solver's runs (``NlpSolver._run``: the solves of one plan),
-    accumulated into the returned one-element list; empty when the planner has no such method."""
-    run = getattr(planner.nlp, "_run", None)
-    if run is None:
-        return []
-    spent = [0.0]
-
-    def timed(*args, **kwargs):
-        started = time.perf_counter()
-        try:
-            return run(*args, **kwargs)
-        finally:
-            spent[0] += time.perf_counter() - started
-
-    planner.nlp._run = timed
-    return spent
 
 
 def format_table(result: dict) -> str:

@@ -34,7 +34,7 @@ from .cache import (
     touch,
     warn_once,
 )
-from .csource import BOUND_NAMES, complete, specialise
+from .csource import OF_Z_ALONE, complete, specialise
 
 NAMES = ("F", "G", "H")
 """Generated functions of ``(z, p)``: ``F -> f``, ``G -> (f, grad)``, ``H -> (f, grad, hess)``."""
@@ -248,7 +248,7 @@ class Compiled:
     ----------
     functions : dict of str to casadi.Function
         External (compiled) functions, or the graph's own in the virtual machine; compiled,
-        also the bound ``Fb``, ``Gb``, ``Hb`` of z alone (:data:`BOUND_NAMES`).
+        also ``F_of_z``, ``G_of_z``, ``H_of_z``, of z alone (:data:`OF_Z_ALONE`).
     compiled : bool
         True when the functions run as compiled C.
     """
@@ -261,7 +261,8 @@ class Compiled:
             return
         # The library alone (``functions`` may be None): the externals carry the generated
         # functions' shapes and work sizes, so a cached library needs no graph.
-        self.functions = {name: ca.external(name, str(library)) for name in NAMES + BOUND_NAMES}
+        self.functions = {name: ca.external(name, str(library))
+                          for name in (*NAMES, *OF_Z_ALONE.values())}
         handle = ctypes.CDLL(str(library))
         self._c = {name: CFunction(handle, name, self.functions[name]) for name in NAMES}
         self._bind = handle.dsmpepc_bind
@@ -270,7 +271,8 @@ class Compiled:
 
     def bind(self, p: np.ndarray) -> None:
         """Set the parameters of the following :meth:`call` s (and, compiled, of the bound
-        functions ``Fb``, ``Gb``, ``Hb``: ``p`` is kept, not copied, until the next bind)."""
+        functions ``F_of_z``, ``G_of_z``, ``H_of_z``: ``p`` is kept, not copied, until the next
+        bind)."""
         if self._c is None:
             self._p = ca.DM(p)
         else:
@@ -346,5 +348,5 @@ def _compiler_identity() -> str:
     return f"{path}:{stat.st_size}:{stat.st_mtime_ns}"
 
 
-__all__ = ["BOUND_NAMES", "CFunction", "Compiled", "compile_library", "load_or_compile",
+__all__ = ["OF_Z_ALONE", "CFunction", "Compiled", "compile_library", "load_or_compile",
            "problem_functions", "source_hash", "specialise"]

@@ -102,10 +102,12 @@ def specialise(source: str) -> str:
     return source
 
 
-BOUND_NAMES = ("Fb", "Gb", "Hb")
-"""``F``, ``G``, ``H`` of z alone, reading the parameters bound by :meth:`Compiled.bind`
-(what IPOPT calls; ``adj1_Fb``, the reverse derivative of ``Fb`` in z, is there for CasADi)."""
-_BOUND = (("Fb", "F", 1), ("Gb", "G", 1), ("Hb", "H", 1), ("adj1_Fb", "Fz_adj", 3))
+OF_Z_ALONE = {"F": "F_of_z", "G": "G_of_z", "H": "H_of_z"}
+"""The name of ``F``, ``G``, ``H`` of z alone, reading the parameters bound by
+:meth:`Compiled.bind` (what IPOPT calls; ``adj1_F_of_z``, the reverse derivative of ``F_of_z``
+in z, is there for CasADi)."""
+_BOUND = (("F_of_z", "F", 1), ("G_of_z", "G", 1), ("H_of_z", "H", 1),
+          ("adj1_F_of_z", "Fz_adj", 3))
 """(bound name, generated function, inputs before p)."""
 
 
@@ -142,4 +144,4 @@ def complete(generated: str) -> str:
         .replace("NIN", str(n_in)) for bound, name, n_in in _BOUND)
 
 
-__all__ = ["BOUND_NAMES", "complete", "specialise"]
+__all__ = ["OF_Z_ALONE", "complete", "specialise"]

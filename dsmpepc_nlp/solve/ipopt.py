@@ -18,6 +18,7 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..core.solver_config import SolverConfig
+from .csource import OF_Z_ALONE
 from .problem import Problem, SolveResult, snap
 from .threads import StartExecutor
 
@@ -149,7 +150,7 @@ def _build_ipopt(problem: Problem, solver: SolverConfig, warm: bool):
     lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", 0, 1)
 
     def call(name):
-        return functions[name + "b"](z) if bound else functions[name](z, p)
+        return functions[OF_Z_ALONE[name]](z) if bound else functions[name](z, p)
 
     value, gradient = call("G")
     options = ipopt_options(solver, warm)

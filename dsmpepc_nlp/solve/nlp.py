@@ -113,6 +113,9 @@ class NlpSolver:
         self.last_stats = []
         self.last_screen = {}
         self.kernel_loading = False
+        self.solver_s = 0.0
+        """Seconds spent inside the solver's runs (``solve_many``: the solves of a plan, and
+        what its executor overlaps with them), summed over every plan of this object."""
         self.build_s = time.perf_counter() - started
 
     def sizes_for(self, cycle) -> GraphSizes:
@@ -251,8 +254,10 @@ class NlpSolver:
                     guesses[chosen[index]] = self._solved_record(named[chosen[index]], result)
                 self._verdicts(guesses, evaluator, one_thread=True)
                 self.polish.ahead(guesses, evaluator, walks, busy)
+        began = time.perf_counter()
         results = self._solver.solve_many(problem, [self._start(*named[i]) for i in first],
                                           Overlap(parallel.solve_threads, further, ahead))
+        self.solver_s += time.perf_counter() - began
         listed()
         for i, result in zip(chosen, results):
             name, z0 = named[i]
