@@ -100,8 +100,14 @@ def test_newton_nlp_solver_records_are_finite_and_in_the_box(monkeypatch):
         assert np.all(record.z >= np.array(cfg.z_lower)) and np.all(record.z <= cfg.z_upper)
 
 
-def test_compiled_loop_uses_the_python_loops_constants():
+def test_compiled_loop_compiles_the_python_loops_step_arithmetic():
+    """Both loops take their step's arithmetic from one text (``trust_region``): the compiled
+    loop's functions are numba's compilations of the functions the Python loop calls."""
+    from dsmpepc_nlp.solve import trust_region
+
     module = newton._kernel()
     if module is None:
         pytest.skip("numba missing or compilation off")
-    assert (module.ETA, module.SHRINK, module.GROW) == (newton.ETA, newton.SHRINK, newton.GROW)
+    for name in ("step_bounds", "model_decrease", "converged", "next_radius", "sr1_update"):
+        assert getattr(module, f"_{name}").py_func is getattr(trust_region, name)
+        assert getattr(newton, name) is getattr(trust_region, name)

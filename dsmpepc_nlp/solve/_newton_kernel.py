@@ -13,6 +13,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from . import trust_region
+from .trust_region import ETA, SHRINK
+
 
 @numba.njit(cache=True, fastmath=False, error_model="numpy")
 def _inverse_if_definite(A, tol, out):  # pragma: no cover
@@ -113,8 +116,14 @@ def box_qp_faces(g, H, lower, upper, at_low, at_up, subset, both, pad):  # pragm
 
 # --- the whole trust-region loop, calling the compiled cost through function pointers -------
 
-ETA, SHRINK, GROW = 0.05, 0.25, 4.0
-"""``newton.ETA``, ``newton.SHRINK``, ``newton.GROW`` (a test holds them equal)."""
+_jit = numba.njit(cache=False, fastmath=False, error_model="numpy")
+_step_bounds = _jit(trust_region.step_bounds)
+_model_decrease = _jit(trust_region.model_decrease)
+_converged = _jit(trust_region.converged)
+_next_radius = _jit(trust_region.next_radius)
+_sr1_update = _jit(trust_region.sr1_update)
+"""The trust-region step's arithmetic (:mod:`.trust_region`), the text the Python loop runs,
+compiled."""
 
 
 @numba.njit(cache=True, fastmath=False, error_model="numpy")
@@ -173,39 +182,22 @@ def minimize_sr1(f_fn, f_buf, f_in, f_out, g_fn, g_buf, g_in, g_out, g_grad,  # 
     # sr1's state: the last point the derivatives were taken at (accepted or not).
     z_prev, g_prev, H_prev = x.copy(), g.copy(), H.copy()
     status, nit = 1, 0
-    step_low = np.empty(n)
-    step_up = np.empty(n)
     while nit < max_iter:
         nit += 1
-        for i in range(n):
-            step_low[i] = max(lower[i] - x[i], -radius * span[i])
-            step_up[i] = min(upper[i] - x[i], radius * span[i])
+        step_low, step_up = _step_bounds(x, lower, upper, radius, span)
         d = _box_qp(g, H, step_low, step_up, at_low, at_up, subset, both, pad)
-        predicted = -(g @ d + 0.5 * d @ H @ d)
-        on_edge = False
-        for i in range(n):
-            if abs(abs(d[i]) - radius * span[i]) < 1e-9 * span[i]:
-                on_edge = True
-        if predicted <= tol and (not on_edge or predicted <= 1e-3 * tol):
+        predicted, on_edge = _model_decrease(g, H, d, radius, span)
+        if _converged(predicted, on_edge, tol):
             status = 0
             break
         trial = x + d
         f_trial = f_out[0] if _call(f_fn, f_buf, f_in, trial) else np.nan
         nfev += 1
-        ratio = (fx - f_trial) / predicted if np.isfinite(f_trial) else -np.inf
-        if ratio < 0.25:
-            radius = SHRINK * max(np.max(np.abs(d) / span), 1e-12)
-        elif ratio > 0.75 and on_edge:
-            radius = min(GROW * radius, 1.0)
+        ratio, radius = _next_radius(fx, f_trial, predicted, d, span, radius, on_edge)
         if ratio > ETA:
             f_new = g_out[0] if _call(g_fn, g_buf, g_in, trial) else np.nan
             g_new = g_grad.copy()
-            step, change = trial - z_prev, g_new - g_prev
-            H_new = H_prev.copy()
-            residual = change - H_new @ step
-            denominator = residual @ step
-            if abs(denominator) > 1e-8 * np.linalg.norm(step) * np.linalg.norm(residual):
-                H_new += np.outer(residual, residual) / denominator
+            H_new = _sr1_update(H_prev, trial - z_prev, g_new - g_prev)
             z_prev, g_prev, H_prev = trial.copy(), g_new, H_new
             nhev += 1
             if _finite(f_new, g_new, H_new):

@@ -26,14 +26,18 @@ from ..core.solver_config import SolverConfig
 from .cache import compile_enabled, numba_folder, warn_once
 from .problem import Problem, SolveResult, snap
 from .threads import StartExecutor
+from .trust_region import (
+    ETA,
+    SHRINK,
+    converged,
+    model_decrease,
+    next_radius,
+    sr1_update,
+    step_bounds,
+)
 
 _FACES = {}
 _KERNEL = {}
-
-ETA = 0.05
-"""Smallest ratio of actual to predicted decrease for a step to be accepted."""
-SHRINK, GROW = 0.25, 4.0
-"""Trust radius factors after a poor (ratio < 0.25) and a very good (ratio > 0.75) step."""
 
 
 def _faces(n: int):
@@ -189,22 +193,15 @@ def minimize(f, fgh, x0, lower, upper, *, radius=0.25, max_iter=40, tol=1e-5,
     status, nit = "max_iter", 0
     while nit < max_iter:
         nit += 1
-        step_low = np.maximum(lower - x, -radius * span)
-        step_up = np.minimum(upper - x, radius * span)
-        d = box_qp(g, H, step_low, step_up)
-        predicted = -(g @ d + 0.5 * d @ H @ d)
-        on_edge = np.any(np.abs(np.abs(d) - radius * span) < 1e-9 * span)
-        if predicted <= tol and (not on_edge or predicted <= 1e-3 * tol):
+        d = box_qp(g, H, *step_bounds(x, lower, upper, radius, span))
+        predicted, on_edge = model_decrease(g, H, d, radius, span)
+        if converged(predicted, on_edge, tol):
             status = "converged"
             break
         trial = x + d
         f_trial = f(trial)
         nfev += 1
-        ratio = (fx - f_trial) / predicted if math.isfinite(f_trial) else -math.inf
-        if ratio < 0.25:
-            radius = SHRINK * max(np.max(np.abs(d) / span), 1e-12)
-        elif ratio > 0.75 and on_edge:
-            radius = min(GROW * radius, 1.0)
+        ratio, radius = next_radius(fx, f_trial, predicted, d, span, radius, on_edge)
         if ratio > ETA:
             f_new, g_new, H_new = fgh(trial)
             nhev += 1
@@ -304,12 +301,7 @@ def sr1(problem: Problem):
             value, gradient, hessian = problem.fgh(z)
         else:
             value, gradient = problem.fg(z)
-            step, change = z - state["z"], gradient - state["g"]
-            hessian = state["H"].copy()
-            residual = change - hessian @ step
-            denominator = float(residual @ step)
-            if abs(denominator) > 1e-8 * np.linalg.norm(step) * np.linalg.norm(residual):
-                hessian += np.outer(residual, residual) / denominator
+            hessian = sr1_update(state["H"], z - state["z"], gradient - state["g"])
         state.update(z=np.array(z, dtype=float), g=gradient, H=hessian)
         return value, gradient, hessian
     return fgh
