@@ -31,8 +31,11 @@ class CostConfig:
     """Action weight on v^2, s/m^2 per second of horizon (IROS 2012)."""
     c_w: float = 0.1
     """Action weight on omega^2, s/rad^2 per second of horizon (IROS 2012)."""
-    c_collision: float = 0.1
-    """Cost of a collision per step, weighted by 1 - survivability (IROS 2012)."""
+    c_collision: float = 0.3
+    """Cost of a collision per step, weighted by 1 - survivability. IROS 2012 and the paper:
+    0.1 (:meth:`PlannerConfig.paper`); ours 0.3, chosen on CrowdNav's tuning episodes: at 0.1
+    the term weighs little against progress, and the robot took passes that people then walked
+    into (docs/method.md section 8, docs/results.md)."""
     w_progress: float = 1.0
     """Weight of the progress term (the paper: 1; docs/method.md section 5.3)."""
     w_action: float = 1.0
