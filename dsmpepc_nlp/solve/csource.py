@@ -119,9 +119,9 @@ _FUNCTION_HEAD = re.compile(r"^static int casadi_f\d+\(const casadi_real\*\* arg
 
 def lighten(source: str, lines: int = LONG_FUNCTION_LINES) -> str:
     """``source`` with GCC's ``optimize("O1")`` on every generated function longer than
-    ``lines``: the MX-level drivers of F, G, H and the adjoint (~20,000 lines of calls and
-    copies each) took most of ``-O2``'s time (63 s -> 26 s for the 12-object library) for
-    2-5 % of a call; the SX pieces, where the arithmetic is, stay at ``-O2``. Without
+    ``lines``: the MX-level drivers of F, G, H and the adjoint (long runs of calls and copies)
+    took most of ``-O2``'s compile time for little of a call's (docs/nlp.md, "Pass 12"); the SX
+    pieces, where the arithmetic is, stay at ``-O2``. Without
     reassociation or contraction both levels round alike, so the outputs are the same bits.
     Other compilers ignore the attribute."""
     out, position = [], 0

@@ -47,14 +47,14 @@ def ipopt_options(solver: SolverConfig, warm: bool) -> dict:
                     # cost (docs/nlp.md, "this pass").
                     "ipopt.mu_oracle": "probing",
                     # Second-order corrections repair constraint violations; with bounds
-                    # alone each rejected step paid for them in cost evaluations (46 -> 29
-                    # per solve), and gradient scaling one gradient per solve. Both leave
+                    # alone each rejected step paid for them in cost evaluations, and
+                    # gradient scaling one gradient per solve. Both leave
                     # every iterate as it was (docs/nlp.md, "Pass 4").
                     "ipopt.max_soc": 0,
                     "ipopt.nlp_scaling_method": "none",
                     # The limited-memory Hessian's augmented system solved as one extended
                     # system instead of by Sherman-Morrison backsolves: the same steps to
-                    # rounding, ~2 ms less of IPOPT's own time per solve (docs/nlp.md, "Pass 5").
+                    # rounding, less of IPOPT's own time per solve (docs/nlp.md, "Pass 5").
                     "ipopt.limited_memory_aug_solver": "extended"})
     if solver.local.hessian == "quasi-newton":
         options["ipopt.hessian_approximation"] = "limited-memory"
