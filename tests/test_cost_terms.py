@@ -64,3 +64,10 @@ def test_unknown_term_names_are_refused():
         CostConfig(disabled=("progres",))
     with pytest.raises(InputError, match="CostConfig.w_progress"):
         CostConfig(w_progress=-1.0)
+
+
+def test_a_term_counted_neither_per_step_nor_at_the_end_is_refused():
+    from dsmpepc_nlp.core.terms import Term
+
+    with pytest.raises(ValueError, match="over = 'sideways'"):
+        Term("speed", "w_action", "sideways", lambda q, c: q.v)

@@ -55,6 +55,11 @@ class Term:
     raw: Callable
     """The unweighted formula ``raw(q, c)``."""
 
+    def __post_init__(self):
+        if self.over not in OVER:
+            raise ValueError(f"Term {self.name!r}: over = {self.over!r}: must be one of "
+                             f"{', '.join(OVER)}")
+
 
 def _progress(q, c):
     """Progress toward the goal weighted by survivability (MPEPC): ``S_k (NF_k - NF_{k-1})``."""
@@ -94,3 +99,5 @@ TERMS = (
 
 TERM_NAMES = tuple(term.name for term in TERMS)
 """The terms' names, in :data:`TERMS` order."""
+if len(set(TERM_NAMES)) != len(TERM_NAMES):
+    raise ValueError(f"the term table names a term twice: {TERM_NAMES}")
