@@ -51,6 +51,29 @@ def test_run_bench_shape():
         assert 0 < row["solver_ms"] < row["median_ms"]
     assert math.isfinite(result["ratio_default_to_sampling"])
     assert isinstance(result["table"], str)
+    fresh = result["fresh_process"]
+    assert fresh["first_plan_ms"] > fresh["plan_ms"] > 0
+    # where the children had no bytecode, the installed case is measured beside it
+    assert fresh["bytecode"] or fresh["with_bytecode"]["bytecode"]
+
+
+def test_the_fresh_process_figure_says_whether_modules_came_from_bytecode(monkeypatch,
+                                                                          tmp_path):
+    """With bytecode neither written nor found (PYTHONDONTWRITEBYTECODE and an empty bytecode
+    folder) the children compile every module's source; the bench then measures the installed
+    case too, with a bytecode folder of its own, and labels both."""
+    from dsmpepc_nlp.bench.timing import fresh_first_plan, fresh_lines
+
+    monkeypatch.setenv("PYTHONDONTWRITEBYTECODE", "1")
+    monkeypatch.setenv("PYTHONPYCACHEPREFIX", str(tmp_path / "empty"))
+    monkeypatch.setenv("DSMPEPC_NO_COMPILE", "1")   # the children plan in CasADi's VM
+    config = PlannerConfig()
+    fresh = fresh_first_plan(demo_cycles(config, 1, 0, n_samples=64)[0], config, runs=1)
+    assert fresh["bytecode"] is False
+    assert fresh["with_bytecode"]["bytecode"] is True
+    assert not (tmp_path / "empty").exists()       # nothing was written where it may not be
+    table = "\n".join(fresh_lines(fresh))
+    assert "modules from source" in table and "modules from bytecode" in table
 
 
 def test_bench_summary_reports_the_first_plan_beside_median_and_p95():

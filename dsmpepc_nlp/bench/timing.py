@@ -116,7 +116,7 @@ def run_bench(n_cycles: int = 20, seed: int = 0, config: PlannerConfig | None = 
 _FRESH = """
 import time
 started = time.perf_counter()
-import json, pickle, sys
+import json, os, pickle, sys
 import dsmpepc_nlp
 from dsmpepc_nlp import Planner
 imported = time.perf_counter()
@@ -125,37 +125,64 @@ loaded = time.perf_counter()
 planner = Planner(config)
 plan = planner.plan(state, world, goal, dock=False)
 done = time.perf_counter()
+module = sys.modules["dsmpepc_nlp.solve.planner"]
 print(json.dumps({"import_ms": 1e3 * (imported - started), "plan_ms": 1e3 * (done - loaded),
                   "first_plan_ms": 1e3 * (done - started - (loaded - imported)),
-                  "status": plan.status}))
+                  "status": plan.status,
+                  "bytecode": bool(module.__cached__) and os.path.exists(module.__cached__)}))
 """
 
+_FIGURES = ("first_plan_ms", "import_ms", "plan_ms", "process_ms")
 
-def fresh_first_plan(cycle, config: PlannerConfig, runs: int = 3) -> dict:
-    """The first plan of a fresh Python process, in child processes (median of ``runs``):
-    ``first_plan_ms`` from the interpreter's first statement through the imports, the
-    planner's construction and one plan of ``cycle`` (the scene's unpickling left out), with
-    ``import_ms`` and ``plan_ms`` its parts, ``process_ms`` the child's whole wall time
-    (interpreter start and exit included) and the plans' ``status``. Whatever is compiled
-    is in the cache already (the bench's own plans used it); a structure that is not
-    compiled would be answered by the sampler (status ``sampling-compiling``)."""
+
+def _fresh_children(data: bytes, runs: int, env: dict) -> dict:
+    """One untimed child (it writes the bytecode where it may), then ``runs`` timed ones:
+    the medians of :data:`_FIGURES`, the statuses, and whether the package's modules were
+    read from bytecode (``__pycache__``) in every timed child."""
     import json
-    import pickle
     import subprocess
     import sys
 
-    data = pickle.dumps((config, cycle))
     rows = []
-    for _ in range(runs):
+    for run in range(runs + 1):
         started = time.perf_counter()
         done = subprocess.run([sys.executable, "-c", _FRESH], input=data, capture_output=True,
-                              check=True)
+                              check=True, env=env)
         row = json.loads(done.stdout.decode().strip().splitlines()[-1])
         row["process_ms"] = 1e3 * (time.perf_counter() - started)
-        rows.append(row)
-    summary = {name: float(np.median([r[name] for r in rows]))
-               for name in ("first_plan_ms", "import_ms", "plan_ms", "process_ms")}
+        if run:
+            rows.append(row)
+    summary = {name: float(np.median([r[name] for r in rows])) for name in _FIGURES}
     summary["status"] = sorted({r["status"] for r in rows})
+    summary["bytecode"] = all(r["bytecode"] for r in rows)
+    return summary
+
+
+def fresh_first_plan(cycle, config: PlannerConfig, runs: int = 3) -> dict:
+    """The first plan of a fresh Python process, in child processes (median of ``runs``,
+    after one untimed child): ``first_plan_ms`` from the interpreter's first statement
+    through the imports, the planner's construction and one plan of ``cycle`` (the scene's
+    unpickling left out), with ``import_ms`` and ``plan_ms`` its parts, ``process_ms`` the
+    child's whole wall time (interpreter start and exit included) and the plans' ``status``.
+    Whatever is compiled is in the cache already (the bench's own plans used it); a structure
+    that is not compiled would be answered by the sampler (status ``sampling-compiling``).
+
+    ``bytecode`` says whether the children read the package's modules from bytecode, as
+    ``pip install .`` leaves them. Where they could not (``PYTHONDONTWRITEBYTECODE`` set
+    and no ``__pycache__`` beside the sources: every import compiles its module's source,
+    ~50 ms more), ``with_bytecode`` has the same figures from children given a temporary
+    bytecode folder (``PYTHONPYCACHEPREFIX``), the installed package's case."""
+    import os
+    import pickle
+    import tempfile
+
+    data = pickle.dumps((config, cycle))
+    summary = _fresh_children(data, runs, dict(os.environ))
+    if not summary["bytecode"]:
+        with tempfile.TemporaryDirectory(prefix="dsmpepc-pycache-") as prefix:
+            env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+            env["PYTHONPYCACHEPREFIX"] = prefix
+            summary["with_bytecode"] = _fresh_children(data, runs, env)
     return summary
 
 
@@ -275,13 +302,26 @@ def format_table(result: dict) -> str:
                          f"{result.get('tol', 0.01)} in {100 * row['polish_gain_share']:.0f} % "
                          f"of plans (median {row['polish_gain_median']:.4f}, p90 "
                          f"{row['polish_gain_p90']:.3f}, max {row['polish_gain_max']:.3f})")
-    fresh = result.get("fresh_process")
-    if fresh:
-        lines.append(f"first plan of a fresh process (child, default solver): "
-                     f"{fresh['first_plan_ms']:.0f} ms median (imports {fresh['import_ms']:.0f} "
-                     f"ms, planner and plan {fresh['plan_ms']:.0f} ms; whole child "
-                     f"{fresh['process_ms']:.0f} ms; status {', '.join(fresh['status'])})")
+    if result.get("fresh_process"):
+        lines += fresh_lines(result["fresh_process"])
     return "\n".join(lines)
+
+
+def fresh_lines(fresh: dict) -> list:
+    """The lines of the table on :func:`fresh_first_plan`'s figures."""
+    lines = ["first plan of a fresh process (child, default solver): " + _fresh_line(fresh)]
+    if "with_bytecode" in fresh:
+        lines.append("  the package has no bytecode here (PYTHONDONTWRITEBYTECODE, no "
+                     "__pycache__); with bytecode, as `pip install .` leaves it: "
+                     + _fresh_line(fresh["with_bytecode"]))
+    return lines
+
+
+def _fresh_line(fresh: dict) -> str:
+    source = "bytecode" if fresh["bytecode"] else "source"
+    return (f"{fresh['first_plan_ms']:.0f} ms median (modules from {source}; imports "
+            f"{fresh['import_ms']:.0f} ms, planner and plan {fresh['plan_ms']:.0f} ms; whole "
+            f"child {fresh['process_ms']:.0f} ms; status {', '.join(fresh['status'])})")
 
 
 if __name__ == "__main__":
