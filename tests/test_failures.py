@@ -9,6 +9,7 @@ import pytest
 
 from dsmpepc_nlp.bench import failures
 from dsmpepc_nlp.bench.failure_report import classify_folder, unsuccessful
+from dsmpepc_nlp.bench.crowd_rows import APPEARED, OFFSTAGE
 from dsmpepc_nlp.bench.failures import classify
 from dsmpepc_nlp.bench.results import ResultTable, keep_failure
 from dsmpepc_nlp.cli import main
@@ -107,7 +108,57 @@ def test_a_robot_hit_side_on_while_driving_is_struck_while_moving():
     assert abs(f.evidence["approach_speed"]) < 0.01
 
 
+def _appearing(n, on_stage_from):
+    """A walker closing on a standing robot along +x at 1 m/s, parked at OFFSTAGE before
+    state ``on_stage_from`` (as the ETH/UCY replay keeps a track that has not begun)."""
+    ped = np.stack([0.2 * n - np.arange(n) * 0.2 + 0.4, np.zeros(n)], 1)
+    ped[:on_stage_from] = OFFSTAGE
+    return ped[:, None, :]
+
+
+def test_struck_by_a_walker_who_appeared_moments_before_is_appeared_in_reach():
+    n = 12                              # contact at the last state, t = 2.2 s
+    f = classify(make_episode(standing(n), "collision", peds=_appearing(n, n - 4)))
+    assert f.name == "appeared-in-reach"
+    assert f.evidence["contact_age"] == pytest.approx(0.6)      # on stage for 3 steps
+    assert f.evidence["appeared_within"] == APPEARED
+    assert f.evidence["collision_kind"] == "struck"            # the benchmark's kind is kept
+
+
+def test_a_walker_seen_for_longer_than_the_threshold_is_not_appeared_in_reach():
+    n = 12
+    f = classify(make_episode(standing(n), "collision", peds=_appearing(n, n - 8)))
+    assert f.evidence["contact_age"] == pytest.approx(1.4)
+    assert f.name == "struck-stopped"
+    # on stage from the first state: present all along, whatever the contact time
+    f = classify(make_episode(standing(4), "collision", peds=_appearing(4, 0)))
+    assert f.evidence["contact_age"] == math.inf and f.name == "struck-stopped"
+
+
 # -- stuck ---------------------------------------------------------------------------------------
+
+
+def test_a_person_standing_on_the_goal_all_window_is_goal_occupied():
+    # the goal 1 m ahead; a person stands 0.1 m from it: 0.1 + 0.25 (tolerance) < 0.3 + 0.3
+    ped = np.tile([[[1.1, 0.0]]], (STALL, 1, 1))
+    f = classify(make_episode(standing(STALL), "deadlock", peds=ped, goal=(1.0, 0.0)))
+    assert f.name == "goal-occupied"
+    assert f.evidence["goal_occupied_share"] == 1.0
+    assert f.evidence["goal_person"] == 0
+    assert f.evidence["goal_person_distance"] == pytest.approx(0.1)
+
+
+def test_a_goal_that_was_free_for_a_moment_is_not_goal_occupied():
+    ped = np.tile([[[1.1, 0.0]]], (STALL, 1, 1))
+    ped[STALL - 20] = (1.1, 2.0)            # stepped aside for one cycle in the window
+    f = classify(make_episode(standing(STALL), "deadlock", peds=ped, goal=(1.0, 0.0)))
+    assert 0.9 < f.evidence["goal_occupied_share"] < 1.0
+    assert f.name == "stalled-near-goal-person"
+    # beside the goal, not on it: a footprint fits within the tolerance (0.5 + 0.25 > 0.6)
+    ped = np.tile([[[1.5, 0.0]]], (STALL, 1, 1))
+    f = classify(make_episode(standing(STALL), "deadlock", peds=ped, goal=(1.0, 0.0)))
+    assert f.evidence["goal_occupied_share"] == 0.0
+    assert f.name == "stalled-near-goal-person"
 
 
 def test_stalled_near_the_goal_beside_a_standing_person():

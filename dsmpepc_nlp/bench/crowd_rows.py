@@ -18,7 +18,9 @@ OFFSTAGE = (1.0e4, 1.0e4)
 there, and a gap near it is no pedestrian on stage, not a distance."""
 APPEARED = 1.0
 """A pedestrian on stage for less than this at contact appeared beside the robot (its track
-began there, out of nowhere), s: braking from 1 m/s at 1.5 m/s^2 alone takes 0.67 s."""
+began there, out of nowhere), s: braking from 1 m/s at 1.5 m/s^2 alone takes 0.67 s, and a
+plan sees a newcomer up to a 0.2 s cycle late. The failure classifier's ``appeared-in-reach``
+uses it too."""
 
 
 def contact_age(episode, robot: int = 0) -> float:

@@ -4,16 +4,29 @@
 returns a :class:`FailureClass`: the class's name, the cycle to look at and the numbers the
 rules used. The rules, in the order they are tried (the first that holds names the class):
 
+``appeared-in-reach``
+    The outcome is a collision with a pedestrian whose track began (who came on stage from
+    ``OFFSTAGE``, in the ETH/UCY replays: where the annotation starts) less than
+    :data:`~dsmpepc_nlp.bench.crowd_rows.APPEARED` (1 s) before the contact: braking from
+    1 m/s alone takes 0.67 s, and a plan sees a newcomer a cycle late. The benchmark still
+    counts the collision (at fault or struck, as the evidence says).
 ``at-fault``, ``struck-moving``, ``struck-stopped``
-    The outcome is a collision. :func:`~dsmpepc_nlp.sim.metrics.collision_kind` says
+    Any other collision. :func:`~dsmpepc_nlp.sim.metrics.collision_kind` says
     ``at-fault`` (the robot moved toward what it touched faster than
     :data:`~dsmpepc_nlp.sim.metrics.AT_FAULT_SPEED`) or ``struck``; a struck robot is
     ``struck-moving`` when a footprint circle moved faster than :data:`STOPPED_SPEED` over the
     last step, else ``struck-stopped``.
+``goal-occupied``
+    Not a collision, and over the whole last :data:`STUCK_WINDOW` of the run a pedestrian
+    stood where the robot would have to be to arrive: its body overlaps every point within the
+    goal tolerance, for the smallest circle of the footprint (``|person - goal| + tolerance <
+    r_person + r_circle``). No planner can arrive while it stands there (in ETH/UCY's zara2,
+    goals drawn where people walked fall on people who stand talking for minutes).
 ``slow`` / ``wandering``
-    Not a collision and not stuck: over the last :data:`STUCK_WINDOW` of the run the robot got
-    the stuck limit ``STUCK_SHARE * v_limit * window`` or farther (``slow``: the time ran out
-    while it still made way; ``wandering``: the deadlock rule fired though it kept moving).
+    Not a collision, not ``goal-occupied`` and not stuck: over the last
+    :data:`STUCK_WINDOW` of the run the robot got the stuck limit ``STUCK_SHARE * v_limit *
+    window`` or farther (``slow``: the time ran out while it still made way; ``wandering``:
+    the deadlock rule fired though it kept moving).
 ``oscillating``
     Stuck, but moving back and forth: a path of :data:`OSCILLATION_SHARE` times the stuck
     limit or more over the window, or :data:`OSCILLATION_REVERSALS` or more sign changes of v
@@ -45,10 +58,12 @@ from ..core.geometry import footprint_points
 from ..core.world import World
 from ..sim.metrics import collision_kind, contact_approach_speed, run_length
 from ..sim.outcomes import OutcomeConfig
+from .crowd_rows import APPEARED, contact_age
 
-CLASSES = ("at-fault", "struck-moving", "struck-stopped", "stalled-near-goal-person",
-           "stalled-beside-person", "stalled-in-gap", "stalled-near-goal", "stalled-open",
-           "oscillating", "wandering", "slow")
+CLASSES = ("appeared-in-reach", "at-fault", "struck-moving", "struck-stopped",
+           "goal-occupied", "stalled-near-goal-person", "stalled-beside-person",
+           "stalled-in-gap", "stalled-near-goal", "stalled-open", "oscillating", "wandering",
+           "slow")
 """Every class :func:`classify` returns, in the order of the module docstring's rules."""
 
 STOPPED_SPEED = 0.05
@@ -145,7 +160,9 @@ def _collision(episode, robot, stop) -> tuple:
     kind = collision_kind(episode, robot)
     evidence = {"collision_kind": kind, "robot_speed": speed, "stopped_speed": STOPPED_SPEED,
                 "approach_speed": contact_approach_speed(episode, robot),
-                **_touched(episode, robot, k)}
+                **_touched(episode, robot, k), **_appeared(episode, robot)}
+    if evidence.get("contact_age", math.inf) < APPEARED:
+        return "appeared-in-reach", evidence
     if kind == "at-fault":
         return "at-fault", evidence
     return ("struck-moving" if speed > STOPPED_SPEED else "struck-stopped"), evidence
@@ -190,6 +207,10 @@ def _stuck(episode, robot, stop, outcome) -> tuple:
                 "path_in_window": path, "reversals": reversals,
                 "goal_distance": goal_distance, "docking_radius": docking,
                 **_person(episode, robot, stop - 1), **_gap(episode, robot, stop - 1)}
+    occupied = _goal_occupied(episode, robot, first, stop)
+    evidence.update(occupied)
+    if occupied and occupied["goal_occupied_share"] == 1.0:
+        return "goal-occupied", evidence
     if net >= limit:
         return ("wandering" if outcome == "deadlock" else "slow"), evidence
     if path >= OSCILLATION_SHARE * limit or reversals >= OSCILLATION_REVERSALS:
@@ -215,6 +236,37 @@ def _from_config(episode, part: str, name: str, default: float) -> float:
         return float(episode.meta["config"][part][name])
     except (KeyError, TypeError, ValueError):
         return default
+
+
+def _appeared(episode, robot) -> dict:
+    """``contact_age``: how long (s) the touched pedestrian had been on stage, the crowd
+    benchmark's own :func:`~dsmpepc_nlp.bench.crowd_rows.contact_age` (inf for one on stage
+    from the run's first state: present all along, it did not appear), beside the threshold
+    ``appeared_within`` (:data:`~dsmpepc_nlp.bench.crowd_rows.APPEARED`); {} without one."""
+    age = contact_age(episode, robot)
+    if not math.isfinite(age):
+        return {}
+    dt = float(episode.times[1] - episode.times[0]) if episode.times.size > 1 else 0.0
+    if age >= float(episode.outcome_times[robot]) - dt - 1e-9:
+        age = math.inf
+    return {"contact_age": age, "appeared_within": APPEARED}
+
+
+def _goal_occupied(episode, robot, first, stop) -> dict:
+    """Over states ``first .. stop - 1``: the share of them in which a pedestrian's body
+    covers every point within the goal tolerance for the footprint's smallest circle
+    (``goal_occupied_share``), and at the last of them the nearest pedestrian to the goal
+    (``goal_person``, ``goal_person_distance`` m, centre to goal); {} without pedestrians."""
+    if not episode.ped_radii.size:
+        return {}
+    tolerance = float(episode.meta.get("goal_tolerances", [0.0] * (robot + 1))[robot])
+    smallest = float(np.min(episode.footprint(robot)[:, 2]))
+    goals = episode.goals[robot, first:stop]
+    d = np.linalg.norm(episode.ped_positions[first:stop] - goals[:, None, :], axis=-1)
+    covered = np.any(d + tolerance < episode.ped_radii[None] + smallest, axis=1)
+    j = int(np.argmin(d[-1]))
+    return {"goal_occupied_share": float(np.mean(covered)), "goal_person": j,
+            "goal_person_distance": float(d[-1, j])}
 
 
 def _person(episode, robot, k) -> dict:

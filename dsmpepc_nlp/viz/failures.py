@@ -20,8 +20,9 @@ from ..core.files import atomic_savefig
 from ..sim.outcomes import OutcomeConfig
 from .plots import _footprint, _limits, draw_cost_panel, draw_map, on_stage
 
-EVIDENCE_KEYS = ("collision_kind", "touched", "robot_speed", "approach_speed", "net_displacement",
-                 "path_in_window", "reversals", "goal_distance", "person_gap", "person_speed",
+EVIDENCE_KEYS = ("collision_kind", "touched", "robot_speed", "approach_speed", "contact_age",
+                 "net_displacement", "path_in_window", "reversals", "goal_distance",
+                 "goal_occupied_share", "goal_person_distance", "person_gap", "person_speed",
                  "gap_width", "robot_width")
 """Evidence printed in a scene, in this order (those the class has)."""
 
@@ -46,9 +47,11 @@ def draw_scene(ax, episode, failure: dict, label: str, evidence: bool = True) ->
     ax.plot(path[:, 0], path[:, 1], color="tab:blue", lw=1.2, zorder=3)
     ax.plot(path[-window:, 0], path[-window:, 1], color="darkorange", lw=3, zorder=3)
     ax.plot(*path[0], marker="o", color="tab:blue", ms=6, zorder=5)
+    seen = failure["evidence"]
+    person = (seen.get("goal_person") if failure["class"] == "goal-occupied"
+              else seen.get("person", seen.get("pedestrian")))
     for j, radius in enumerate(episode.ped_radii):
         trace = on_stage(episode, episode.ped_positions[:end + 1, j])
-        person = failure["evidence"].get("person", failure["evidence"].get("pedestrian"))
         colour = "darkred" if j == person else "tab:red"
         ax.plot(trace[:, 0], trace[:, 1], color=colour, lw=0.8, alpha=0.5, zorder=2)
         if np.all(np.isfinite(trace[min(k, len(trace) - 1)])):
