@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from dsmpepc_nlp.bench import failures
-from dsmpepc_nlp.bench.failure_report import classify_folder, unsuccessful
 from dsmpepc_nlp.bench.crowd_rows import APPEARED, OFFSTAGE
+from dsmpepc_nlp.bench.failure_report import classify_folder, unsuccessful
 from dsmpepc_nlp.bench.failures import classify
 from dsmpepc_nlp.bench.results import ResultTable, keep_failure
 from dsmpepc_nlp.cli import main
