@@ -89,7 +89,11 @@ def preset_config(preset: str, variant: str) -> PlannerConfig:
 def configure(params: dict, variant: str, preset: str = "product") -> PlannerConfig:
     """The variant's configuration under ``preset`` with the parameters replaced (validated by
     the config)."""
-    config = preset_config(preset, variant)
+    return replaced(preset_config(preset, variant), params)
+
+
+def replaced(config: PlannerConfig, params: dict) -> PlannerConfig:
+    """``config`` with the parameters ``{name: value}`` replaced (validated by the config)."""
     changes: dict = {}
     for name, value in params.items():
         section, field = _resolve_name(name)
