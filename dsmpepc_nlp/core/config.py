@@ -194,11 +194,21 @@ class StallConfig:
     """The ladder's highest level; 0 turns the monitor off."""
     gain: float = 2.0
     """Level ``k`` multiplies the progress weight by ``gain ** k``."""
+    back_up: float = 0.0
+    """The back-up rung's speed, m/s; 0 turns it off. At any level of the ladder, a plan that
+    would stand (less than ``min_displacement`` over the horizon) is set against reverse
+    trajectories at this speed (straight back, and curving back either way at a 1 m radius)
+    for ``back_up_time``, then braking; the exact cost takes the cheapest if it is cheaper than
+    the plan. The pose-following law turns only while it drives forward, so a robot facing a
+    person just ahead has no way out of its own (docs/results.md; ours, as Nav2's back-up)."""
+    back_up_time: float = 1.0
+    """How long the back-up rung reverses before braking, s (our choice: five plans)."""
 
     def __post_init__(self):
         validate_fields(self, {"window": dict(low=0.0, low_open=True),
                                 "min_displacement": dict(low=0.0, low_open=True),
-                                "gain": dict(low=1.0)})
+                                "gain": dict(low=1.0), "back_up": dict(low=0.0),
+                                "back_up_time": dict(low=0.0, low_open=True)})
         check_integers(self, {"levels": 0})
 
     def progress_gain(self, level: int) -> float:

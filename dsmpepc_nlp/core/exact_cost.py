@@ -90,8 +90,12 @@ def _static_geometry(poses, speeds, world, config, points):
     if config.anticipatory_pc:
         near = distance < _SIGNIFICANT_BELL * config.cost.sigma_static
         if np.any(near):
-            inv_ttc[near] = _static_inverse_ttc(points[near], poses[near][:, 2],
-                                                speeds[near], world, config)
+            # along the direction of travel: backwards for a reversing pose (only the back-up
+            # rung's trajectories reverse; the law's never do, and for them this is the heading)
+            heading, speed = poses[near][:, 2], speeds[near]
+            inv_ttc[near] = _static_inverse_ttc(points[near], np.where(speed < 0.0, heading
+                                                                       + np.pi, heading),
+                                                np.abs(speed), world, config)
     return distance, inv_ttc
 
 

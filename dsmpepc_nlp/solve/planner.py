@@ -17,7 +17,7 @@ from ..core.exact_cost import CostBreakdown
 from ..core.solver_config import SolverConfig
 from ..core.terms import TERM_NAMES
 from ..core.world import World
-from . import docking, exact
+from . import backup, docking, exact
 from .cycle import Cycle
 from .evaluator import Evaluation, Evaluator
 from .nlp import NlpSolver
@@ -202,9 +202,13 @@ class Planner:
                                 compiling=compiling)
         if plan is None:
             plan = self._stop(state, records)
-        elif sample and evaluated is None and cycle is not None:    # docked or the NLP's
-            evaluated = self._try(trouble, "the sampler", self.sampler.search, evaluator,
-                                  starts)
+        else:
+            if level and cycle is not None:    # the ladder's back-up rung (off unless set)
+                plan = self._try(trouble, "the back-up", backup.consider, plan, state, cycle,
+                                 level) or plan
+            if sample and evaluated is None and cycle is not None:    # docked or the NLP's
+                evaluated = self._try(trouble, "the sampler", self.sampler.search, evaluator,
+                                      starts)
         if trouble:
             plan = _replace(plan, message="; ".join(trouble) + "; " + plan.message,
                             success=False)
