@@ -1,0 +1,93 @@
+"""The stall ladder's back-up rung (solve/backup.py): reverse trajectories within the robot's
+limits, costed by the exact cost, taken only while stalled and only over a plan that stands."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState, StallConfig
+from dsmpepc_nlp.core.errors import InputError
+from dsmpepc_nlp.core.exact_cost import evaluate, exact_geometry
+from dsmpepc_nlp.core.grid import OccupancyGrid
+from dsmpepc_nlp.core.solver_config import SolverConfig
+from dsmpepc_nlp.core.world import DynamicObstacle, World
+from dsmpepc_nlp.solve import backup
+from dsmpepc_nlp.solve.cycle import Cycle
+from dsmpepc_nlp.solve.planner import Planner
+
+ON = PlannerConfig(stall=StallConfig(back_up=0.3))
+GOAL = (5.0, 0.0)
+
+
+def person_just_ahead(gap=0.05):
+    """A standing person ``gap`` m in front of a round robot (r = 0.3) at the origin facing +x,
+    between it and the goal."""
+    return World(obstacles=[DynamicObstacle.pedestrian((0.6 + gap, 0.0), (0.0, 0.0), 0.3)])
+
+
+def test_the_back_ups_reverse_within_the_robots_limits_and_then_brake():
+    state = RobotState(0.0, 0.0, 0.0, 0.2, 0.5)      # still rolling forward and turning
+    config = PlannerConfig(stall=StallConfig(back_up=2.0, back_up_time=1.0))
+    t = backup.back_up_trajectories(state, config)
+    robot, dt = config.robot, config.horizon.dt
+    assert t.poses.shape == (3, config.horizon.n_steps + 1, 3)
+    assert np.all(t.poses[:, 0] == [0.0, 0.0, 0.0])
+    speed = robot.accel_limit * dt                   # capped: one period brakes it back
+    assert np.min(t.v) == pytest.approx(-speed) and np.max(t.v) <= 0.2 + 1e-12
+    v = np.concatenate([np.full((3, 1), 0.2), t.v], axis=1)
+    omega = np.concatenate([np.full((3, 1), 0.5), t.omega], axis=1)
+    assert np.all(np.abs(np.diff(v, axis=1)) <= robot.accel_limit * dt + 1e-12)
+    assert np.all(np.abs(np.diff(omega, axis=1)) <= robot.alpha_limit * dt + 1e-12)
+    assert np.all(t.v[:, -5:] == 0.0)                # braked and standing at the end
+    assert np.all(t.poses[:, -1, 0] < 0.0)           # every one ended behind the start
+    assert t.poses[1, -1, 2] > t.poses[0, -1, 2] > t.poses[2, -1, 2]   # left, straight, right
+
+
+def test_backing_toward_a_wall_sees_the_wall_in_its_time_to_collision():
+    occupied = np.zeros((40, 40), dtype=bool)
+    occupied[:, :7] = True                           # a wall at x < -0.65
+    world = World(OccupancyGrid(occupied, 0.05, origin=(-1.0, -1.0)))
+    back = backup.back_up_trajectories(RobotState(0.0, 0.0, 0.0), ON)[0:1]
+    # the same path driven forward: facing the wall (heading + pi), speed +|v|
+    forward = dataclasses.replace(back, poses=back.poses + [0.0, 0.0, np.pi], v=-back.v)
+    reversing = exact_geometry(back, world, GOAL, ON)
+    driving = exact_geometry(forward, world, GOAL, ON)
+    near_and_reversing = (reversing.distance[0, :, 0] < 0.2) & (np.r_[back.v[0], 0.0] < 0)
+    assert np.any(near_and_reversing)
+    assert np.all(reversing.inv_ttc[0, near_and_reversing, 0] > 0.0)  # the wall behind: seen
+    np.testing.assert_allclose(reversing.inv_ttc, driving.inv_ttc, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(evaluate(back, world, GOAL, ON).survivability,
+                               evaluate(forward, world, GOAL, ON).survivability, rtol=1e-12)
+
+
+def test_stalled_facing_a_person_just_ahead_the_robot_backs_up():
+    planner = Planner(ON, SolverConfig.sampling(n_samples=256))
+    state = RobotState(0.0, 0.0, 0.0)
+    plans = [planner.plan(state, person_just_ahead(), GOAL) for _ in range(12)]
+    assert plans[0].status != "backing-up" and plans[0].stall_level == 0
+    backing = [p for p in plans if p.status == "backing-up"]
+    assert backing, [p.message for p in plans]
+    plan = backing[0]
+    assert plan.stall_level >= 1 and plan.control[0] < 0.0 and np.all(np.isfinite(plan.x))
+    assert "backing up" in plan.message and np.isfinite(plan.fun)
+    assert plan.trajectory.poses[-1, 0] < 0.0
+
+
+def test_off_by_default_never_backs_up_and_a_moving_plan_is_kept():
+    planner = Planner(PlannerConfig(), SolverConfig.sampling(n_samples=256))
+    state = RobotState(0.0, 0.0, 0.0)
+    assert all(planner.plan(state, person_just_ahead(), GOAL).status != "backing-up"
+               for _ in range(12))
+    # a plan that drives off is never replaced, whatever the ladder says
+    cycle = Cycle.prepare(state, World(), GOAL, ON)
+    moving = Planner(ON, SolverConfig.sampling(n_samples=256)).plan(state, World(), GOAL)
+    assert not backup.stands(moving, ON)
+    assert backup.consider(moving, state, cycle, level=3) is None
+
+
+@pytest.mark.parametrize("changes, field", [({"back_up": -0.1}, "back_up"),
+                                            ({"back_up_time": 0.0}, "back_up_time")])
+def test_bad_back_up_settings_are_refused_by_name(changes, field):
+    with pytest.raises(InputError, match=field):
+        StallConfig(**changes)
