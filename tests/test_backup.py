@@ -74,8 +74,10 @@ def test_stalled_facing_a_person_just_ahead_the_robot_backs_up():
     assert plan.trajectory.poses[-1, 0] < 0.0
 
 
-def test_off_by_default_never_backs_up_and_a_moving_plan_is_kept():
-    planner = Planner(PlannerConfig(), SolverConfig.sampling(n_samples=256))
+def test_switched_off_never_backs_up_and_a_moving_plan_is_kept():
+    assert PlannerConfig().stall.back_up == 0.3 and PlannerConfig.paper().stall.back_up == 0.0
+    off = PlannerConfig(stall=StallConfig(back_up=0.0))
+    planner = Planner(off, SolverConfig.sampling(n_samples=256))
     state = RobotState(0.0, 0.0, 0.0)
     assert all(planner.plan(state, person_just_ahead(), GOAL).status != "backing-up"
                for _ in range(12))

@@ -194,13 +194,15 @@ class StallConfig:
     """The ladder's highest level; 0 turns the monitor off."""
     gain: float = 2.0
     """Level ``k`` multiplies the progress weight by ``gain ** k``."""
-    back_up: float = 0.0
+    back_up: float = 0.3
     """The back-up rung's speed, m/s; 0 turns it off. At any level of the ladder, a plan that
     would stand (less than ``min_displacement`` over the horizon) is set against reverse
     trajectories at this speed (straight back, and curving back either way at a 1 m radius)
     for ``back_up_time``, then braking; the exact cost takes the cheapest if it is cheaper than
     the plan. The pose-following law turns only while it drives forward, so a robot facing a
-    person just ahead has no way out of its own (docs/results.md; ours, as Nav2's back-up)."""
+    person just ahead has no way out of its own (docs/results.md; ours, as Nav2's back-up).
+    0.3 m/s is what one plan period's braking takes back (``accel_limit * dt``, the cap); on
+    by default since CrowdNav's tuning episodes: success 973 -> 980 of 1000."""
     back_up_time: float = 1.0
     """How long the back-up rung reverses before braking, s (our choice: five plans)."""
 
@@ -263,7 +265,7 @@ class PlannerConfig:
         cost = changes.pop("cost", CostConfig(c_collision=0.1, sigma_static_from_map=False,
                                               ttg_along_nf=False, sigma_dynamic_growth=0.0))
         changes.setdefault("docking", DockingConfig(arrival_radius=0.0, radius_from_reach=False))
-        changes.setdefault("stall", StallConfig(levels=0))
+        changes.setdefault("stall", StallConfig(levels=0, back_up=0.0))
         return cls(anticipatory_pc=switches[0], terminal_cost=switches[1], cost=cost, **changes)
 
     def for_map(self, resolution: float | None) -> PlannerConfig:
