@@ -31,3 +31,20 @@ os.environ.setdefault("DSMPEPC_STRICT", "1")
 def _close_figures():
     yield
     plt.close("all")
+
+
+@pytest.fixture
+def tool():
+    """``tool("name")``: the module ``tools/name.py`` of the repository, loaded from its file
+    (the tools are scripts, not a package)."""
+    import importlib.util
+    from pathlib import Path
+
+    def load(name):
+        path = Path(__file__).resolve().parents[1] / "tools" / f"{name}.py"
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module
+
+    return load

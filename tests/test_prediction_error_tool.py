@@ -1,21 +1,10 @@
 """tools/prediction_error.py: the constant-velocity prediction's error by look-ahead."""
 
-import importlib.util
-from pathlib import Path
 
 import numpy as np
 
-TOOL = Path(__file__).resolve().parents[1] / "tools" / "prediction_error.py"
 
-
-def _tool():
-    spec = importlib.util.spec_from_file_location("prediction_error", TOOL)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-def test_a_straight_walker_is_predicted_exactly_and_a_turn_is_not(tmp_path):
+def test_a_straight_walker_is_predicted_exactly_and_a_turn_is_not(tmp_path, tool):
     folder = tmp_path / "toy" / "test"
     folder.mkdir(parents=True)
     rows = []
@@ -25,7 +14,7 @@ def test_a_straight_walker_is_predicted_exactly_and_a_turn_is_not(tmp_path):
         rows.append((10 * k, 2, min(t, 2.0), max(t - 2.0, 0.0)))
     (folder / "toy.txt").write_text("".join(f"{f:.1f}\t{p:.1f}\t{x:.3f}\t{y:.3f}\n"
                                             for f, p, x, y in rows))
-    found = _tool().errors(tmp_path, "toy", horizon=2.0)
+    found = tool("prediction_error").errors(tmp_path, "toy", horizon=2.0)
     assert sorted(found) == [0.4, 0.8, 1.2, 1.6, 2.0]
     for error in found.values():
         assert error.shape[1] == 2

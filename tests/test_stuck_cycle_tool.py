@@ -1,26 +1,15 @@
 """tools/stuck_cycle.py: a logged cycle re-costed, the best sampled trajectory beside the stop."""
 
-import importlib.util
 import json
-from pathlib import Path
 
 import numpy as np
 from test_failures import make_episode, standing
 
-TOOL = Path(__file__).resolve().parents[1] / "tools" / "stuck_cycle.py"
 
-
-def _tool():
-    spec = importlib.util.spec_from_file_location("stuck_cycle", TOOL)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-def test_a_robot_facing_an_open_goal_is_told_to_go_not_to_stand(tmp_path, capsys):
+def test_a_robot_facing_an_open_goal_is_told_to_go_not_to_stand(tmp_path, capsys, tool):
     episode = make_episode(standing(6), "deadlock", goal=(5.0, 0.0))   # nobody around
     path = episode.save(tmp_path / "open.npz")
-    assert _tool().main([str(path), "--cycle", "2", "--samples", "64"]) == 0
+    assert tool("stuck_cycle").main([str(path), "--cycle", "2", "--samples", "64"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["cycle"] == 2
     assert report["stop"]["z"][3] == 0.0
@@ -29,13 +18,13 @@ def test_a_robot_facing_an_open_goal_is_told_to_go_not_to_stand(tmp_path, capsys
     assert report["lowest_cost"]["z"][3] > 0.0                       # it moves
 
 
-def test_the_law_cannot_back_away_from_a_person_just_ahead(tmp_path):
+def test_the_law_cannot_back_away_from_a_person_just_ahead(tmp_path, tool):
     """The trap of docs/results.md: a standing person 0.05 m ahead, the goal beyond them.
     The pose-following law turns only while driving forward, so no trajectory keeps more
     survivability than standing (a law that can back up or spin in place would)."""
     peds = np.tile([[[0.65, 0.0]]], (6, 1, 1))
     episode = make_episode(standing(6), "deadlock", peds=peds, goal=(5.0, 0.0))
-    evaluation, stop = _tool().costed(episode, 2, episode.config(), n_samples=256)
+    evaluation, stop = tool("stuck_cycle").costed(episode, 2, episode.config(), n_samples=256)
     assert evaluation.z[stop, 3] == 0.0
     survival = evaluation.costs.survivability
     assert np.max(survival[:, -1]) <= survival[stop, -1] + 1e-12  # nothing outlives standing
