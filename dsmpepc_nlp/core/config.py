@@ -205,13 +205,16 @@ class StallConfig:
     by default since CrowdNav's tuning episodes: success 973 -> 980 of 1000."""
     back_up_time: float = 1.0
     """How long the back-up rung reverses before braking, s (our choice: five plans)."""
+    back_up_level: int = 1
+    """The ladder's level from which the back-up rung acts: 1, once stalled for a window; 0,
+    on any plan that would stand."""
 
     def __post_init__(self):
         validate_fields(self, {"window": dict(low=0.0, low_open=True),
                                 "min_displacement": dict(low=0.0, low_open=True),
                                 "gain": dict(low=1.0), "back_up": dict(low=0.0),
                                 "back_up_time": dict(low=0.0, low_open=True)})
-        check_integers(self, {"levels": 0})
+        check_integers(self, {"levels": 0, "back_up_level": 0})
 
     def progress_gain(self, level: int) -> float:
         """The progress weight's factor at ``level`` (1 at level 0)."""

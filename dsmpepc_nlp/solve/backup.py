@@ -70,7 +70,8 @@ def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
     """The back-up plan when the rung applies (on, stalled, the plan stands) and a reverse
     trajectory's exact cost is below the plan's; otherwise None (keep ``plan``)."""
     config = cycle.config
-    if config.stall.back_up <= 0.0 or level < 1 or not stands(plan, config):
+    if config.stall.back_up <= 0.0 or level < config.stall.back_up_level \
+            or not stands(plan, config):
         return None
     candidates = back_up_trajectories(state, config)
     costs = evaluate(candidates, cycle.world, cycle.goal, config)

@@ -203,7 +203,7 @@ class Planner:
         if plan is None:
             plan = self._stop(state, records)
         else:
-            if level and cycle is not None:    # the ladder's back-up rung
+            if cycle is not None and self.config.stall.levels:    # the ladder's back-up rung
                 plan = self._try(trouble, "the back-up", backup.consider, plan, state, cycle,
                                  level) or plan
             if sample and evaluated is None and cycle is not None:    # docked or the NLP's
