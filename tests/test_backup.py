@@ -1,5 +1,6 @@
 """The stall ladder's back-up rung (solve/backup.py): reverse trajectories within the robot's
-limits, costed by the exact cost, taken only while stalled and only over a plan that stands."""
+limits, costed by the exact cost, taken only over a plan that stands (from the ladder's
+``back_up_level``) and only when cheaper."""
 
 import dataclasses
 
@@ -61,17 +62,22 @@ def test_backing_toward_a_wall_sees_the_wall_in_its_time_to_collision():
                                evaluate(forward, world, GOAL, ON).survivability, rtol=1e-12)
 
 
-def test_stalled_facing_a_person_just_ahead_the_robot_backs_up():
-    planner = Planner(ON, SolverConfig.sampling(n_samples=256))
+def test_facing_a_person_just_ahead_the_robot_backs_up_from_its_level():
     state = RobotState(0.0, 0.0, 0.0)
+    # the default: any plan that stands meets the back-ups, the first one included
+    planner = Planner(ON, SolverConfig.sampling(n_samples=256))
+    first = planner.plan(state, person_just_ahead(), GOAL)
+    assert ON.stall.back_up_level == 0 and first.stall_level == 0
+    assert first.status == "backing-up", first.message
+    assert first.control[0] < 0.0 and np.all(np.isfinite(first.x)) and np.isfinite(first.fun)
+    assert "backing up" in first.message and first.trajectory.poses[-1, 0] < 0.0
+    # from level 1: only once the ladder says stalled
+    stalled = PlannerConfig(stall=StallConfig(back_up=0.3, back_up_level=1))
+    planner = Planner(stalled, SolverConfig.sampling(n_samples=256))
     plans = [planner.plan(state, person_just_ahead(), GOAL) for _ in range(12)]
     assert plans[0].status != "backing-up" and plans[0].stall_level == 0
     backing = [p for p in plans if p.status == "backing-up"]
-    assert backing, [p.message for p in plans]
-    plan = backing[0]
-    assert plan.stall_level >= 1 and plan.control[0] < 0.0 and np.all(np.isfinite(plan.x))
-    assert "backing up" in plan.message and np.isfinite(plan.fun)
-    assert plan.trajectory.poses[-1, 0] < 0.0
+    assert backing and all(p.stall_level >= 1 for p in backing), [p.message for p in plans]
 
 
 def test_switched_off_never_backs_up_and_a_moving_plan_is_kept():
@@ -89,7 +95,8 @@ def test_switched_off_never_backs_up_and_a_moving_plan_is_kept():
 
 
 @pytest.mark.parametrize("changes, field", [({"back_up": -0.1}, "back_up"),
-                                            ({"back_up_time": 0.0}, "back_up_time")])
+                                            ({"back_up_time": 0.0}, "back_up_time"),
+                                            ({"back_up_level": -1}, "back_up_level")])
 def test_bad_back_up_settings_are_refused_by_name(changes, field):
     with pytest.raises(InputError, match=field):
         StallConfig(**changes)

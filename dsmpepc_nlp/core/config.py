@@ -195,19 +195,21 @@ class StallConfig:
     gain: float = 2.0
     """Level ``k`` multiplies the progress weight by ``gain ** k``."""
     back_up: float = 0.3
-    """The back-up rung's speed, m/s; 0 turns it off. At any level of the ladder, a plan that
-    would stand (less than ``min_displacement`` over the horizon) is set against reverse
-    trajectories at this speed (straight back, and curving back either way at a 1 m radius)
-    for ``back_up_time``, then braking; the exact cost takes the cheapest if it is cheaper than
-    the plan. The pose-following law turns only while it drives forward, so a robot facing a
-    person just ahead has no way out of its own (docs/results.md; ours, as Nav2's back-up).
+    """The back-up rung's speed, m/s; 0 turns it off. From ``back_up_level`` of the ladder on,
+    a plan that would stand (less than ``min_displacement`` over the horizon) is set against
+    reverse trajectories at this speed (straight back, and curving back either way at a 1 m
+    radius) for ``back_up_time``, then braking; the exact cost takes the cheapest if it is
+    cheaper than the plan. The pose-following law turns only while it drives forward, so a
+    robot facing a person just ahead has no way out of its own (docs/results.md; ours, as
+    Nav2's back-up).
     0.3 m/s is what one plan period's braking takes back (``accel_limit * dt``, the cap); on
     by default since CrowdNav's tuning episodes: success 973 -> 980 of 1000."""
     back_up_time: float = 1.0
     """How long the back-up rung reverses before braking, s (our choice: five plans)."""
-    back_up_level: int = 1
-    """The ladder's level from which the back-up rung acts: 1, once stalled for a window; 0,
-    on any plan that would stand."""
+    back_up_level: int = 0
+    """The ladder's level from which the back-up rung acts: 0, on any plan that would stand
+    (the default: CrowdNav's tuning episodes 980 -> 984 of 1000 against 1); 1, once stalled
+    for a window. The rung acts only with the ladder on (``levels`` > 0)."""
 
     def __post_init__(self):
         validate_fields(self, {"window": dict(low=0.0, low_open=True),

@@ -4,8 +4,9 @@ The law turns only while it drives forward (its turn rate is the curvature times
 so a robot that stands facing a person just ahead has no trajectory of its own that does not
 first close the gap: every one costs more than standing, and the robot waits for as long as the
 person stands (docs/results.md, "CrowdNav's stalls are a trap of the control law"). In the
-spirit of Nav2's back-up recovery, while the stall monitor says the robot is stalled and the
-chosen plan would stand, this rung sets a few reverse trajectories against it, costed by the
+spirit of Nav2's back-up recovery, when the chosen plan would stand (from the stall ladder's
+level ``StallConfig.back_up_level`` on: 0 by default, any plan), this rung sets a few reverse
+trajectories against it, costed by the
 same exact cost (``exact_cost.evaluate``, the numpy reference: the compiled kernel and the graph
 only ever see the law's forward trajectories), and takes the cheapest when it is cheaper than
 the plan. ``StallConfig.back_up`` (m/s; 0 = off) and ``back_up_time``; docs/method.md
@@ -67,8 +68,9 @@ def stands(plan: Plan, config: PlannerConfig) -> bool:
 
 
 def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
-    """The back-up plan when the rung applies (on, stalled, the plan stands) and a reverse
-    trajectory's exact cost is below the plan's; otherwise None (keep ``plan``)."""
+    """The back-up plan when the rung applies (on, the ladder at ``back_up_level`` or above,
+    the plan stands) and a reverse trajectory's exact cost is below the plan's; otherwise None
+    (keep ``plan``)."""
     config = cycle.config
     if config.stall.back_up <= 0.0 or level < config.stall.back_up_level \
             or not stands(plan, config):
