@@ -1,6 +1,6 @@
 """The stall ladder's back-up rung (solve/backup.py): reverse trajectories within the robot's
-limits, costed by the exact cost, taken only over a plan that stands (from the ladder's
-``back_up_level``) and only when cheaper."""
+limits, costed by the exact cost, taken only over a plan that stands, once stalled (the
+ladder's ``back_up_level``), and only when cheaper."""
 
 import dataclasses
 
@@ -64,20 +64,29 @@ def test_backing_toward_a_wall_sees_the_wall_in_its_time_to_collision():
 
 def test_facing_a_person_just_ahead_the_robot_backs_up_from_its_level():
     state = RobotState(0.0, 0.0, 0.0)
-    # the default: any plan that stands meets the back-ups, the first one included
+    # the default: only once the ladder says stalled
+    assert ON.stall.back_up_level == 1
     planner = Planner(ON, SolverConfig.sampling(n_samples=256))
-    first = planner.plan(state, person_just_ahead(), GOAL)
-    assert ON.stall.back_up_level == 0 and first.stall_level == 0
-    assert first.status == "backing-up", first.message
-    assert first.control[0] < 0.0 and np.all(np.isfinite(first.x)) and np.isfinite(first.fun)
-    assert "backing up" in first.message and first.trajectory.poses[-1, 0] < 0.0
-    # from level 1: only once the ladder says stalled
-    stalled = PlannerConfig(stall=StallConfig(back_up=0.3, back_up_level=1))
-    planner = Planner(stalled, SolverConfig.sampling(n_samples=256))
     plans = [planner.plan(state, person_just_ahead(), GOAL) for _ in range(12)]
     assert plans[0].status != "backing-up" and plans[0].stall_level == 0
     backing = [p for p in plans if p.status == "backing-up"]
     assert backing and all(p.stall_level >= 1 for p in backing), [p.message for p in plans]
+    plan = backing[0]
+    assert plan.control[0] < 0.0 and np.all(np.isfinite(plan.x)) and np.isfinite(plan.fun)
+    assert "backing up" in plan.message and plan.trajectory.poses[-1, 0] < 0.0
+    # from level 0: any plan that stands, the first one included
+    eager = PlannerConfig(stall=StallConfig(back_up=0.3, back_up_level=0))
+    first = Planner(eager, SolverConfig.sampling(n_samples=256)).plan(
+        state, person_just_ahead(), GOAL)
+    assert first.stall_level == 0 and first.status == "backing-up", first.message
+
+
+def test_a_robot_standing_at_its_goal_does_not_back_away_by_default():
+    """What level 0 did (docs/results.md) and level 1 does not: the stall monitor never counts
+    a robot at its goal as stalled, so the rung leaves it standing there."""
+    state, goal = RobotState(1.0, 1.0, 0.0), (1.0, 1.0)
+    planner = Planner(PlannerConfig(), SolverConfig.sampling(n_samples=64))
+    assert all(planner.plan(state, World(), goal).status != "backing-up" for _ in range(15))
 
 
 def test_switched_off_never_backs_up_and_a_moving_plan_is_kept():

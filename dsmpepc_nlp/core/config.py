@@ -206,10 +206,11 @@ class StallConfig:
     by default since CrowdNav's tuning episodes: success 973 -> 980 of 1000."""
     back_up_time: float = 1.0
     """How long the back-up rung reverses before braking, s (our choice: five plans)."""
-    back_up_level: int = 0
-    """The ladder's level from which the back-up rung acts: 0, on any plan that would stand
-    (the default: CrowdNav's tuning episodes 980 -> 984 of 1000 against 1); 1, once stalled
-    for a window. The rung acts only with the ladder on (``levels`` > 0)."""
+    back_up_level: int = 1
+    """The ladder's level from which the back-up rung acts: 1, once stalled for a window (the
+    stall monitor does not count a robot at its goal); 0, on any plan that would stand, which
+    also backed robots away from a goal they stood at (docs/results.md: measured, not taken).
+    The rung acts only with the ladder on (``levels`` > 0)."""
 
     def __post_init__(self):
         validate_fields(self, {"window": dict(low=0.0, low_open=True),

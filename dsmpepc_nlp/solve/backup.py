@@ -4,8 +4,8 @@ The law turns only while it drives forward (its turn rate is the curvature times
 so a robot that stands facing a person just ahead has no trajectory of its own that does not
 first close the gap: every one costs more than standing, and the robot waits for as long as the
 person stands (docs/results.md, "CrowdNav's stalls are a trap of the control law"). In the
-spirit of Nav2's back-up recovery, when the chosen plan would stand (from the stall ladder's
-level ``StallConfig.back_up_level`` on: 0 by default, any plan), this rung sets a few reverse
+spirit of Nav2's back-up recovery, when the chosen plan would stand and the stall ladder is at
+``StallConfig.back_up_level`` or above (1 by default: stalled), this rung sets a few reverse
 trajectories against it, costed by the
 same exact cost (``exact_cost.evaluate``, the numpy reference: the compiled kernel and the graph
 only ever see the law's forward trajectories), and takes the cheapest when it is cheaper than
