@@ -45,6 +45,13 @@ def test_the_back_ups_reverse_within_the_robots_limits_and_then_brake():
     assert t.poses[1, -1, 2] > t.poses[0, -1, 2] > t.poses[2, -1, 2]   # left, straight, right
 
 
+def test_a_measured_state_outside_the_limits_still_gives_commands_inside_them():
+    state = RobotState(0.0, 0.0, 0.0, -1.77, -2.5)    # measured: faster back than allowed
+    t = backup.back_up_trajectories(state, ON)
+    assert np.all(t.v >= -backup.back_up_speed(ON)) and np.all(t.v <= ON.robot.v_limit)
+    assert np.all(np.abs(t.omega) <= ON.robot.omega_limit)
+
+
 def test_backing_toward_a_wall_sees_the_wall_in_its_time_to_collision():
     occupied = np.zeros((40, 40), dtype=bool)
     occupied[:, :7] = True                           # a wall at x < -0.65

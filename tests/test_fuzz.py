@@ -18,6 +18,7 @@ from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 from dsmpepc_nlp.sim.outcomes import OUTCOMES
 from dsmpepc_nlp.sim.simulate import simulate
 from dsmpepc_nlp.sim.types import Agent, FixedGoal, Pedestrian, Scenario
+from dsmpepc_nlp.solve import backup
 from dsmpepc_nlp.solve.planner import Planner
 
 SLOW = os.environ.get("HYPOTHESIS_PROFILE") == "slow"
@@ -67,10 +68,14 @@ def planner_for(footprint):
     return PLANNERS[footprint]
 
 
-def assert_control_in_limits(control, robot):
-    v, omega = control
+def assert_control_in_limits(plan, config):
+    """Forward within the robot's limits; reverse only for the back-up rung, at most its speed
+    (a planner reused across situations can think itself stalled)."""
+    v, omega = plan.control
+    robot = config.robot
     assert math.isfinite(v) and math.isfinite(omega)
-    assert 0.0 <= v <= robot.v_limit and abs(omega) <= robot.omega_limit
+    low = -backup.back_up_speed(config) if plan.status == "backing-up" else 0.0
+    assert low <= v <= robot.v_limit and abs(omega) <= robot.omega_limit
 
 
 @settings(max_examples=EXAMPLES)
@@ -79,10 +84,10 @@ def test_any_situation_gives_a_finite_control_within_limits(situation, footprint
     state, world, goal = situation
     planner = planner_for(footprint)
     plan = planner.plan(state, world, goal, dock=dock)
-    assert_control_in_limits(plan.control, planner.config.robot)
+    assert_control_in_limits(plan, planner.config)
     assert np.all(np.isfinite(plan.trajectory.poses)) and np.all(np.isfinite(plan.x))
     assert not math.isnan(plan.fun)
-    assert plan.status in ("sampling", "docked", "stopped", "start-in-collision")
+    assert plan.status in ("sampling", "docked", "stopped", "start-in-collision", "backing-up")
 
 
 @settings(max_examples=EXAMPLES // 20)
@@ -111,6 +116,7 @@ def test_the_nlp_path_also_gives_finite_controls_within_limits(situation, method
         NLP_PLANNERS[method] = Planner(PlannerConfig(), SolverConfig.named(method))
     planner = NLP_PLANNERS[method]
     plan = planner.plan(state, world, goal, dock=False)
-    assert_control_in_limits(plan.control, planner.config.robot)
+    assert_control_in_limits(plan, planner.config)
     assert np.all(np.isfinite(plan.trajectory.poses)) and not math.isnan(plan.fun)
-    assert plan.status in ("nlp", "sampling-fallback", "stopped", "start-in-collision")
+    assert plan.status in ("nlp", "sampling-fallback", "stopped", "start-in-collision",
+                           "backing-up")

@@ -29,6 +29,13 @@ TURN_RADIUS = 1.0
 """m: the curving back-ups turn at this radius (omega = speed / radius), either way."""
 
 
+def back_up_speed(config: PlannerConfig) -> float:
+    """The rung's reverse speed, m/s: ``stall.back_up`` capped at ``v_limit`` and at one plan
+    period's braking (``accel_limit * dt``)."""
+    robot = config.robot
+    return min(config.stall.back_up, robot.v_limit, robot.accel_limit * config.horizon.dt)
+
+
 def back_up_trajectories(state, config: PlannerConfig) -> Trajectory:
     """Three reverse trajectories from ``state``: straight back and curving back either way at
     :data:`TURN_RADIUS`, each commanding ``-stall.back_up`` m/s for ``stall.back_up_time``
@@ -38,7 +45,7 @@ def back_up_trajectories(state, config: PlannerConfig) -> Trajectory:
     0.3 m/s for the default robot), so the next plan's law starts from a stop: the law's
     rollout, the compiled kernel and the graph never see a reversing speed."""
     robot, dt, n = config.robot, config.horizon.dt, config.horizon.n_steps
-    speed = min(config.stall.back_up, robot.v_limit, robot.accel_limit * dt)
+    speed = back_up_speed(config)
     turn = min(speed / TURN_RADIUS, robot.omega_limit)
     reversing = int(round(config.stall.back_up_time / dt))
     poses = np.empty((3, n + 1, 3))
@@ -49,10 +56,14 @@ def back_up_trajectories(state, config: PlannerConfig) -> Trajectory:
         poses[i, 0] = pose
         for k in range(n):
             v_cmd, omega_cmd = (-speed, sign * turn) if k < reversing else (0.0, 0.0)
-            v_prev = float(np.clip(v_cmd, v_prev - robot.accel_limit * dt,
-                                   v_prev + robot.accel_limit * dt))
-            omega_prev = float(np.clip(omega_cmd, omega_prev - robot.alpha_limit * dt,
-                                       omega_prev + robot.alpha_limit * dt))
+            # within the rate limits from the last command, and always inside [-speed,
+            # v_limit] x [-omega_limit, omega_limit] (a measured state may be outside them)
+            v_prev = min(max(float(np.clip(v_cmd, v_prev - robot.accel_limit * dt,
+                                           v_prev + robot.accel_limit * dt)), -speed),
+                         robot.v_limit)
+            omega_prev = min(max(float(np.clip(omega_cmd, omega_prev - robot.alpha_limit * dt,
+                                               omega_prev + robot.alpha_limit * dt)),
+                                 -robot.omega_limit), robot.omega_limit)
             pose = np.array(arc_step(pose, v_prev, omega_prev, dt))
             poses[i, k + 1], v[i, k], omega[i, k] = pose, v_prev, omega_prev
     stop = np.array([config.bounds.r_min, 0.0, 0.0, 0.0])
