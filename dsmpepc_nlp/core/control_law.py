@@ -77,7 +77,9 @@ def law_command(pose, target, v_max, config: PlannerConfig, smoothing=EXACT, ops
     return v, kappa * v
 
 
-def _rate_limit(value, previous, limit, dt, temperature, ops):
+def rate_limit(value, previous, limit, dt, temperature, ops=NUMPY):
+    """``value`` within ``limit * dt`` of ``previous`` (smoothed at ``temperature``; 0: exact).
+    The law's rollout and the stall ladder's back-up rung both limit their commands by it."""
     if isinstance(limit, (int, float)) and limit == float("inf"):   # no limit (symbolic: a limit)
         return value
     low, high = previous - limit * dt, previous + limit * dt
@@ -107,8 +109,8 @@ def step(carry, target, v_max, config: PlannerConfig, smoothing=EXACT, ops=NUMPY
     """
     robot, dt = config.robot, config.horizon.dt
     v, omega = law_command(carry[:3], target, v_max, config, smoothing, ops)
-    v = _rate_limit(v, carry[3], robot.accel_limit, dt, smoothing.acceleration, ops)
-    omega = _rate_limit(omega, carry[4], robot.alpha_limit, dt, smoothing.rate, ops)
+    v = rate_limit(v, carry[3], robot.accel_limit, dt, smoothing.acceleration, ops)
+    omega = rate_limit(omega, carry[4], robot.alpha_limit, dt, smoothing.rate, ops)
     x, y, phi = arc_step(carry[:3], v, omega, dt, ops)
     return (x, y, phi, v, omega), v, omega
 

@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from ..core.config import PlannerConfig
-from ..core.control_law import Trajectory, arc_step
+from ..core.control_law import Trajectory, arc_step, clamp_measured, rate_limit
 from ..core.exact_cost import evaluate
 from .records import Plan
 
@@ -39,7 +39,8 @@ def back_up_speed(config: PlannerConfig) -> float:
 def back_up_trajectories(state, config: PlannerConfig) -> Trajectory:
     """Three reverse trajectories from ``state``: straight back and curving back either way at
     :data:`TURN_RADIUS`, each commanding ``-stall.back_up`` m/s for ``stall.back_up_time``
-    then 0, within the robot's acceleration limits from its current speed and turn rate.
+    then 0, within the robot's acceleration limits from its measured speed and turn rate
+    clipped to the forward limits (``clamp_measured``, as the law's rollouts start).
 
     The speed is capped at what one plan period's braking takes back (``accel_limit * dt``,
     0.3 m/s for the default robot), so the next plan's law starts from a stop: the law's
@@ -50,20 +51,15 @@ def back_up_trajectories(state, config: PlannerConfig) -> Trajectory:
     reversing = int(round(config.stall.back_up_time / dt))
     poses = np.empty((3, n + 1, 3))
     v, omega = np.empty((3, n)), np.empty((3, n))
+    start = clamp_measured(state, config)     # where the law's rollouts start too
     for i, sign in enumerate((0.0, 1.0, -1.0)):
         pose = np.array(state.pose, dtype=float)
-        v_prev, omega_prev = float(state.v), float(state.omega)
+        v_prev, omega_prev = start
         poses[i, 0] = pose
         for k in range(n):
             v_cmd, omega_cmd = (-speed, sign * turn) if k < reversing else (0.0, 0.0)
-            # within the rate limits from the last command, and always inside [-speed,
-            # v_limit] x [-omega_limit, omega_limit] (a measured state may be outside them)
-            v_prev = min(max(float(np.clip(v_cmd, v_prev - robot.accel_limit * dt,
-                                           v_prev + robot.accel_limit * dt)), -speed),
-                         robot.v_limit)
-            omega_prev = min(max(float(np.clip(omega_cmd, omega_prev - robot.alpha_limit * dt,
-                                               omega_prev + robot.alpha_limit * dt)),
-                                 -robot.omega_limit), robot.omega_limit)
+            v_prev = float(rate_limit(v_cmd, v_prev, robot.accel_limit, dt, 0.0))
+            omega_prev = float(rate_limit(omega_cmd, omega_prev, robot.alpha_limit, dt, 0.0))
             pose = np.array(arc_step(pose, v_prev, omega_prev, dt))
             poses[i, k + 1], v[i, k], omega[i, k] = pose, v_prev, omega_prev
     stop = np.array([config.bounds.r_min, 0.0, 0.0, 0.0])
