@@ -211,12 +211,19 @@ class StallConfig:
     stall monitor does not count a robot at its goal); 0, on any plan that would stand, which
     also backed robots away from a goal they stood at (docs/results.md: measured, not taken).
     The rung acts only with the ladder on (``levels`` > 0)."""
+    back_up_threat: float = 0.0
+    """Below ``back_up_level`` too, the rung acts on a plan that would stand where the robot
+    expects to be struck: its survival to the horizon's end (the exact cost's ``p^s_N``) is
+    below this. 0 turns it off. A person walking at a standing robot (CrowdNav's invisible
+    robot, a replayed crowd) costs the wait as much as any forward way out; the law cannot
+    turn without first closing the gap, a reverse can."""
 
     def __post_init__(self):
         validate_fields(self, {"window": dict(low=0.0, low_open=True),
                                 "min_displacement": dict(low=0.0, low_open=True),
                                 "gain": dict(low=1.0), "back_up": dict(low=0.0),
-                                "back_up_time": dict(low=0.0, low_open=True)})
+                                "back_up_time": dict(low=0.0, low_open=True),
+                                "back_up_threat": dict(low=0.0, high=1.0)})
         check_integers(self, {"levels": 0, "back_up_level": 0})
 
     def progress_gain(self, level: int) -> float:

@@ -74,13 +74,22 @@ def stands(plan: Plan, config: PlannerConfig) -> bool:
     return path < config.stall.min_displacement
 
 
+def threatened(plan: Plan, config: PlannerConfig) -> bool:
+    """Whether the robot expects to be struck where ``plan`` would leave it: the plan's
+    survival to the horizon's end is below ``stall.back_up_threat`` (never when that is 0)."""
+    survival = plan.cost.survivability
+    return bool(config.stall.back_up_threat > 0.0 and np.size(survival)
+                and float(np.ravel(survival)[-1]) < config.stall.back_up_threat)
+
+
 def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
     """The back-up plan when the rung applies (on, the ladder at ``back_up_level`` or above,
     the plan stands) and a reverse trajectory's exact cost is below the plan's; otherwise None
     (keep ``plan``)."""
     config = cycle.config
-    if config.stall.back_up <= 0.0 or level < config.stall.back_up_level \
-            or not stands(plan, config):
+    if config.stall.back_up <= 0.0 or not stands(plan, config):
+        return None
+    if level < config.stall.back_up_level and not threatened(plan, config):
         return None
     candidates = back_up_trajectories(state, config)
     costs = evaluate(candidates, cycle.world, cycle.goal, config)
