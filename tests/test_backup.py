@@ -1,6 +1,7 @@
 """The stall ladder's back-up rung (solve/backup.py): reverse trajectories within the robot's
 limits, costed by the exact cost, taken only over a plan that stands, once stalled (the
-ladder's ``back_up_level``), and only when cheaper."""
+ladder's ``back_up_level``) or where the robot expects to be struck (``back_up_threat``), and
+only when cheaper."""
 
 import dataclasses
 
@@ -71,9 +72,11 @@ def test_backing_toward_a_wall_sees_the_wall_in_its_time_to_collision():
 
 def test_facing_a_person_just_ahead_the_robot_backs_up_from_its_level():
     state = RobotState(0.0, 0.0, 0.0)
-    # the default: only once the ladder says stalled
+    # the default: once the ladder says stalled (the threat gate off here: a person 5 cm
+    # ahead already costs a standing robot's survival, see the next test)
     assert ON.stall.back_up_level == 1
-    planner = Planner(ON, SolverConfig.sampling(n_samples=256))
+    level_only = PlannerConfig(stall=StallConfig(back_up=0.3, back_up_threat=0.0))
+    planner = Planner(level_only, SolverConfig.sampling(n_samples=256))
     plans = [planner.plan(state, person_just_ahead(), GOAL) for _ in range(12)]
     assert plans[0].status != "backing-up" and plans[0].stall_level == 0
     backing = [p for p in plans if p.status == "backing-up"]
@@ -86,6 +89,25 @@ def test_facing_a_person_just_ahead_the_robot_backs_up_from_its_level():
     first = Planner(eager, SolverConfig.sampling(n_samples=256)).plan(
         state, person_just_ahead(), GOAL)
     assert first.stall_level == 0 and first.status == "backing-up", first.message
+
+
+def test_a_person_walking_at_a_standing_robot_makes_it_back_up_at_once_with_the_threat_gate():
+    """Below the ladder's level, the rung acts only where the robot expects to be struck
+    (``back_up_threat``): a person walking at it, not an open floor."""
+    state = RobotState(0.0, 0.0, 0.0)
+    walking = World(obstacles=[DynamicObstacle.pedestrian((1.8, 0.3), (-1.0, -0.2), 0.3)])
+    solver = SolverConfig.sampling(n_samples=256)
+    assert PlannerConfig().stall.back_up_threat == 0.5
+    gated = PlannerConfig()
+    first = Planner(gated, solver).plan(state, walking, GOAL)
+    assert first.stall_level == 0 and first.status == "backing-up", first.message
+    assert "expects to be struck" in first.message and first.control[0] < 0.0
+    ungated = PlannerConfig(stall=dataclasses.replace(gated.stall, back_up_threat=0.0))
+    plan = Planner(ungated, solver).plan(state, walking, GOAL)
+    assert plan.status != "backing-up" and backup.stands(plan, ungated)
+    assert not backup.threatened(plan, ungated) and backup.threatened(plan, gated)
+    # an open floor: nothing threatens, the plan drives off
+    assert Planner(gated, solver).plan(state, World(), GOAL).status != "backing-up"
 
 
 def test_a_robot_standing_at_its_goal_does_not_back_away_by_default():
@@ -112,7 +134,8 @@ def test_switched_off_never_backs_up_and_a_moving_plan_is_kept():
 
 @pytest.mark.parametrize("changes, field", [({"back_up": -0.1}, "back_up"),
                                             ({"back_up_time": 0.0}, "back_up_time"),
-                                            ({"back_up_level": -1}, "back_up_level")])
+                                            ({"back_up_level": -1}, "back_up_level"),
+                                            ({"back_up_threat": 1.5}, "back_up_threat")])
 def test_bad_back_up_settings_are_refused_by_name(changes, field):
     with pytest.raises(InputError, match=field):
         StallConfig(**changes)

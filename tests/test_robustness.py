@@ -9,6 +9,7 @@ from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
+from dsmpepc_nlp.solve import backup
 from dsmpepc_nlp.solve.cycle import Cycle
 from dsmpepc_nlp.solve.evaluator import evaluate_batch
 from dsmpepc_nlp.solve.planner import Planner
@@ -20,8 +21,11 @@ LIMITS = PlannerConfig().robot
 
 
 def finite_in_limits(plan, robot=LIMITS):
+    """A finite command inside the robot's limits; a reverse only from the back-up rung, at
+    most its speed."""
     v, omega = plan.control
-    return (math.isfinite(v) and math.isfinite(omega) and 0.0 <= v <= robot.v_limit
+    low = -backup.back_up_speed(PlannerConfig()) if plan.status == "backing-up" else 0.0
+    return (math.isfinite(v) and math.isfinite(omega) and low <= v <= robot.v_limit
             and abs(omega) <= robot.omega_limit and not math.isnan(plan.fun))
 
 

@@ -5,12 +5,12 @@ so a robot that stands facing a person just ahead has no trajectory of its own t
 first close the gap: every one costs more than standing, and the robot waits for as long as the
 person stands (docs/results.md, "CrowdNav's stalls are a trap of the control law"). In the
 spirit of Nav2's back-up recovery, when the chosen plan would stand and the stall ladder is at
-``StallConfig.back_up_level`` or above (1 by default: stalled), this rung sets a few reverse
-trajectories against it, costed by the
-same exact cost (``exact_cost.evaluate``, the numpy reference: the compiled kernel and the graph
-only ever see the law's forward trajectories), and takes the cheapest when it is cheaper than
-the plan. ``StallConfig.back_up`` (m/s; 0 = off) and ``back_up_time``; docs/method.md
-section 7.5.
+``StallConfig.back_up_level`` or above (1 by default: stalled), or the robot expects to be
+struck where the plan leaves it (``StallConfig.back_up_threat``), this rung sets a few reverse
+trajectories against it, costed by the same exact cost (``exact_cost.evaluate``, the numpy
+reference: the compiled kernel and the graph only ever see the law's forward trajectories),
+and takes the cheapest when it is cheaper than the plan. ``StallConfig.back_up`` (m/s; 0 =
+off) and ``back_up_time``; docs/method.md section 7.5.
 """
 
 from __future__ import annotations
@@ -83,9 +83,9 @@ def threatened(plan: Plan, config: PlannerConfig) -> bool:
 
 
 def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
-    """The back-up plan when the rung applies (on, the ladder at ``back_up_level`` or above,
-    the plan stands) and a reverse trajectory's exact cost is below the plan's; otherwise None
-    (keep ``plan``)."""
+    """The back-up plan when the rung applies (on, the plan stands, and the ladder is at
+    ``back_up_level`` or above or the plan is :func:`threatened`) and a reverse trajectory's
+    exact cost is below the plan's; otherwise None (keep ``plan``)."""
     config = cycle.config
     if config.stall.back_up <= 0.0 or not stands(plan, config):
         return None
@@ -99,7 +99,13 @@ def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
         return None
     chosen = candidates[best]
     shape = ("straight", "curving left", "curving right")[best]
-    message = (f"stalled and the plan stood (exact cost {plan.fun:.3f}): backing up "
+    if level >= config.stall.back_up_level:
+        why = "stalled and the plan stood"
+    else:
+        why = (f"the plan stood where it expects to be struck (survival "
+               f"{float(np.ravel(plan.cost.survivability)[-1]):.2f} < "
+               f"{config.stall.back_up_threat:g})")
+    message = (f"{why} (exact cost {plan.fun:.3f}): backing up "
                f"{shape} at {config.stall.back_up:g} m/s (exact cost {total[best]:.3f}); "
                f"it replaced: {plan.message}")
     v0, omega0 = float(chosen.v[0]), float(chosen.omega[0])
