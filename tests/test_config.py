@@ -14,13 +14,17 @@ from dsmpepc_nlp.core.config import (
     RobotState,
 )
 from dsmpepc_nlp.core.cost_config import CostConfig, SmoothingConfig
+from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.solver_config import SolverConfig
 
 
 def test_defaults_are_the_methods():
     cfg = PlannerConfig()
     assert (cfg.control_law.k1, cfg.control_law.k2, cfg.control_law.beta) == (1.5, 3.0, 0.4)
-    assert (cfg.control_law.lam, cfg.control_law.r_thresh) == (2.0, 1.2)
+    # The ramp is the robot's own (v_limit^2 / accel_limit, ours); the paper keeps IROS 2012's.
+    assert cfg.control_law.lam == 2.0 and cfg.control_law.r_thresh_from_robot
+    assert cfg.control_law.r_thresh == cfg.robot.v_limit ** 2 / cfg.robot.accel_limit
+    assert PlannerConfig.paper().control_law.r_thresh == 1.2
     assert (cfg.horizon.dt, cfg.horizon.n_steps) == (0.2, 25)
     assert (cfg.cost.a, cfg.cost.s_ttc, cfg.cost.s_ttg) == (0.7, 0.5, 1e-3)
     assert (cfg.cost.sigma_static, cfg.cost.sigma_dynamic) == (0.1, 0.2)
@@ -85,3 +89,20 @@ def test_footprint_radii():
     robot = RobotConfig(footprint=((-0.2, 0.0, 0.2), (0.2, 0.0, 0.2)))
     assert robot.inflation_radius == pytest.approx(0.2)
     assert robot.bounding_radius == pytest.approx(0.4)
+
+
+def test_the_ramp_follows_the_robot_and_a_set_ramp_is_not_silently_replaced():
+    from dsmpepc_nlp.bench.params import configure
+
+    fast = dataclasses.replace(PlannerConfig(), robot=RobotConfig(v_limit=2.0, accel_limit=2.5))
+    assert fast.control_law.r_thresh == pytest.approx(2.0 ** 2 / 2.5)
+    unlimited = PlannerConfig(robot=RobotConfig(accel_limit=math.inf))
+    assert unlimited.control_law.r_thresh == 1.2          # no braking limit: IROS 2012
+    assert dataclasses.replace(PlannerConfig(), robot=unlimited.robot).control_law.r_thresh == 1.2
+    with pytest.raises(InputError, match="r_thresh_from_robot"):
+        configure({"control_law.r_thresh": 0.9}, "ds-mpepc")
+    own = configure({"control_law.r_thresh": 0.9, "control_law.r_thresh_from_robot": 0},
+                    "ds-mpepc")
+    assert own.control_law.r_thresh == 0.9
+    assert configure({"control_law.r_thresh": 0.9}, "ds-mpepc", "paper").control_law.r_thresh \
+        == 0.9

@@ -59,7 +59,7 @@ def test_straight_line_inside_slowdown_radius_is_geometric():
     r, v_max = 1.0, 0.6
     traj = rollout(np.array([r, 0.0, 0.0, v_max]), RobotState(0.0, 0.0, 0.0), NO_RATE_LIMITS)
     k = np.arange(CFG.horizon.n_steps + 1)
-    rho = r * (1.0 - v_max * CFG.horizon.dt / CFG.control_law.r_thresh) ** k
+    rho = r * (1.0 - v_max * CFG.horizon.dt / NO_RATE_LIMITS.control_law.r_thresh) ** k
     np.testing.assert_allclose(traj.poses[:, 0], r - rho, atol=1e-12)
 
 
@@ -106,12 +106,20 @@ def test_bad_z_raises():
         rollout(np.array([1.0, 0.0, np.nan, 1.0]), RobotState(0.0, 0.0, 0.0), CFG)
 
 
+PAPER_LAW = PlannerConfig.paper()
+
+
 @pytest.mark.parametrize("factor", [1.0, 0.1, 0.01])
-def test_smooth_rollout_converges_to_exact(factor):
+@pytest.mark.parametrize("config, bound", [(PAPER_LAW, 0.01), (CFG, 0.02)],
+                         ids=["ramp-1.2m", "ramp-from-robot"])
+def test_smooth_rollout_converges_to_exact(factor, config, bound):
+    """The bound shrinks with the temperature (about linearly). The product's ramp
+    (v_limit^2 / accel_limit = 0.67 m) is steeper than IROS 2012's 1.2 m, and the smooth speed
+    cap's largest deviation at the default temperatures about doubles with it (1.3 cm
+    against 0.6 cm, measured): each ramp has its own bound."""
     rng = np.random.default_rng(1)
     z = z_in_box(rng.random((300, 4)))
     state = RobotState(0.0, 0.0, 0.0, 0.5, 0.2)
-    exact = rollout(z, state, CFG)
-    smooth = rollout(z, state, CFG, CFG.smoothing.scaled(factor))
-    # The bound shrinks with the temperature (about linearly).
-    assert np.abs(smooth.poses - exact.poses).max() < 0.01 * factor + 1e-9
+    exact = rollout(z, state, config)
+    smooth = rollout(z, state, config, config.smoothing.scaled(factor))
+    assert np.abs(smooth.poses - exact.poses).max() < bound * factor + 1e-9

@@ -108,6 +108,11 @@ def replaced(config: PlannerConfig, params: dict) -> PlannerConfig:
             value = int(value)
         changes.setdefault(section, {})[field] = value
     parts = {s: dataclasses.replace(getattr(config, s), **c) for s, c in changes.items()}
+    law = parts.get("control_law", config.control_law)
+    if "r_thresh" in changes.get("control_law", {}) and law.r_thresh_from_robot:
+        raise InputError(f"--param control_law.r_thresh={law.r_thresh!r}: the ramp is derived "
+                         "from the robot (v_limit^2 / accel_limit) while "
+                         "control_law.r_thresh_from_robot is on; set that to 0 as well")
     return dataclasses.replace(config, **parts)
 
 

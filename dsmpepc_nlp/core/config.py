@@ -71,6 +71,10 @@ class RobotConfig:
         return max(math.hypot(cx, cy) + radius for cx, cy, radius in self.footprint)
 
 
+IROS_RAMP = 1.2
+"""IROS 2012's ``r_thresh``, m: the paper's, and the ramp of a robot without a braking limit."""
+
+
 @dataclass(frozen=True)
 class ControlLawConfig:
     """Gains of the smooth pose-following law (Park and Kuipers 2011; values from IROS 2012)."""
@@ -83,8 +87,17 @@ class ControlLawConfig:
     """Slow-down with curvature, ``v = v_max / (1 + beta |kappa|^lam)``, m^lam."""
     lam: float = 2.0
     """Exponent of the curvature slow-down, dimensionless."""
-    r_thresh: float = 1.2
-    """Distance to the target below which speed falls linearly to zero, m."""
+    r_thresh: float = IROS_RAMP
+    """Distance to the target below which speed falls linearly to zero, m (IROS 2012). With
+    ``r_thresh_from_robot`` on (the product's default) it is derived from the robot instead,
+    and a value set here is replaced."""
+    r_thresh_from_robot: bool = True
+    """Our extension (off in :meth:`PlannerConfig.paper`): ``r_thresh`` is the robot's own
+    ramp, ``v_limit ** 2 / accel_limit`` (0.67 m for the default robot), the shortest linear
+    ramp to a stop that its braking can follow (its deceleration ``v_max ** 2 * rho /
+    r_thresh ** 2`` is ``accel_limit`` where the ramp begins). IROS 2012's 1.2 m is another
+    robot's: ours spent ~1.7 s on its last metre to a goal at 1.2 (docs/method.md section 1).
+    With no acceleration limit (``accel_limit`` inf) it is IROS 2012's 1.2 m."""
 
     def __post_init__(self):
         validate_fields(self, {
@@ -94,6 +107,7 @@ class ControlLawConfig:
             "lam": dict(low=1.0),
             "r_thresh": dict(low=0.0, low_open=True),
         })
+        check_booleans(self, ("r_thresh_from_robot",))
 
 
 @dataclass(frozen=True)
@@ -268,6 +282,12 @@ class PlannerConfig:
             if not isinstance(getattr(self, name), kind):
                 fail("PlannerConfig", name, getattr(self, name), f"a {kind.__name__}")
         check_booleans(self, ("anticipatory_pc", "terminal_cost"))
+        law, robot = self.control_law, self.robot
+        if law.r_thresh_from_robot:     # derived on every construction, replace() included
+            ramp = (robot.v_limit ** 2 / robot.accel_limit if math.isfinite(robot.accel_limit)
+                    else IROS_RAMP)
+            if ramp != law.r_thresh:
+                object.__setattr__(self, "control_law", dataclasses.replace(law, r_thresh=ramp))
 
     @classmethod
     def paper(cls, variant: str = "ds-mpepc", **changes) -> PlannerConfig:
@@ -281,6 +301,7 @@ class PlannerConfig:
                                               ttg_along_nf=False, sigma_dynamic_growth=0.0))
         changes.setdefault("docking", DockingConfig(arrival_radius=0.0, radius_from_reach=False))
         changes.setdefault("stall", StallConfig(levels=0, back_up=0.0))
+        changes.setdefault("control_law", ControlLawConfig(r_thresh_from_robot=False))
         return cls(anticipatory_pc=switches[0], terminal_cost=switches[1], cost=cost, **changes)
 
     def for_map(self, resolution: float | None) -> PlannerConfig:
