@@ -1,0 +1,100 @@
+"""The closed loop's configuration: docking at a fixed goal and the stall monitor with its
+back-up rung (our extensions, docs/method.md sections 7.1 and 7.5; :class:`PlannerConfig`
+holds them as ``docking`` and ``stall``, and :mod:`.config` re-exports both)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .validation import check_booleans, check_integers, validate_fields
+
+
+@dataclass(frozen=True)
+class DockingConfig:
+    """Docking near a fixed goal (IROS 2012, docs/method.md section 7.1)."""
+
+    radius: float = 2.0
+    """Within this distance of a fixed goal the target pose is the goal itself, m (IROS 2012);
+    see ``radius_from_reach``."""
+    radius_from_reach: bool = True
+    """Our extension (off in :meth:`PlannerConfig.paper`): dock within the horizon's reach,
+    ``v_limit * n_steps * dt`` (5 m by default), or ``radius`` if that is larger. Once the goal
+    is within reach, every trajectory that arrives by the horizon's end earns the same
+    progress, and the action cost then prefers the slowest of them: a robot that does not
+    dock slows down to arrive just as the horizon ends (docs/method.md section 7.1)."""
+    min_survival: float = 0.9
+    """Dock only while the docking trajectory's survivability is above this (our choice)."""
+    arrival_radius: float = 0.1
+    """Our extension (0 in :meth:`PlannerConfig.paper`): the docking trajectory's survivability
+    is read where it first comes within this distance of the goal, m, not at the horizon's end.
+    Standing at the goal after arriving is the next task's risk, and counting it kept robots
+    short of a goal with a person standing beside it (docs/method.md section 7.1). 0: read at
+    the horizon's end."""
+
+    def __post_init__(self):
+        validate_fields(self, {"radius": dict(low=0.0), "min_survival": dict(low=0.0, high=1.0),
+                                "arrival_radius": dict(low=0.0)})
+        check_booleans(self, ("radius_from_reach",))
+
+
+@dataclass(frozen=True)
+class StallConfig:
+    """The planner's stall monitor and its escalation ladder (our extension, docs/method.md
+    section 7.5; off in :meth:`PlannerConfig.paper`).
+
+    A robot that moved less than ``min_displacement`` over its last ``window`` of plans while
+    farther than ``docking.arrival_radius`` from its goal is stalled; each such window raises
+    the ladder one level, up to ``levels``, and level ``k`` plans with the progress weight
+    times ``gain ** k``: progress is worth more of the risk the cost weighs it against. A
+    window with progress puts the ladder back to 0. The simulator's deadlock rule does not
+    know of it: a robot the ladder cannot free still deadlocks.
+    """
+
+    window: float = 2.0
+    """Stall window, s, counted in plans of ``horizon.dt`` each (our choice: a fifth of the
+    simulator's 10 s deadlock window, so the ladder's levels come well before it)."""
+    min_displacement: float = 0.2
+    """Least net displacement over the window, m, of a robot that is not stalled: the
+    simulator's deadlock rate (1 m in 10 s), so a robot slower than what that rule calls
+    stuck escalates long before the rule fires (our choice)."""
+    levels: int = 3
+    """The ladder's highest level; 0 turns the monitor off."""
+    gain: float = 2.0
+    """Level ``k`` multiplies the progress weight by ``gain ** k``."""
+    back_up: float = 0.3
+    """The back-up rung's speed, m/s; 0 turns it off. From ``back_up_level`` of the ladder on,
+    a plan that would stand (less than ``min_displacement`` over the horizon) is set against
+    reverse trajectories at this speed (straight back, and curving back either way at a 1 m
+    radius) for ``back_up_time``, then braking; the exact cost takes the cheapest if it is
+    cheaper than the plan. The pose-following law turns only while it drives forward, so a
+    robot facing a person just ahead has no way out of its own (docs/results.md; ours, as
+    Nav2's back-up).
+    0.3 m/s is what one plan period's braking takes back (``accel_limit * dt``, the cap); on
+    by default since CrowdNav's tuning episodes: success 973 -> 980 of 1000."""
+    back_up_time: float = 1.0
+    """How long the back-up rung reverses before braking, s (our choice: five plans)."""
+    back_up_level: int = 1
+    """The ladder's level from which the back-up rung acts: 1, once stalled for a window (the
+    stall monitor does not count a robot at its goal); 0, on any plan that would stand, which
+    also backed robots away from a goal they stood at (docs/results.md: measured, not taken).
+    The rung acts only with the ladder on (``levels`` > 0)."""
+    back_up_threat: float = 0.5
+    """Below ``back_up_level`` too, the rung acts on a plan that would stand where the robot
+    expects to be struck: its survival to the horizon's end (the exact cost's ``p^s_N``) is
+    below this; 0 turns it off. A person walking at a standing robot (CrowdNav's invisible
+    robot, a replayed crowd) makes every forward way out cost as much as the wait, since the
+    law cannot turn without first closing the gap; a reverse can open it. 0.5, "more likely
+    struck than not", was set before any run (ours); on by default since the tuning episodes
+    (CrowdNav seed 1, ETH/UCY eth and hotel): 10 won, 2 lost (docs/results.md)."""
+
+    def __post_init__(self):
+        validate_fields(self, {"window": dict(low=0.0, low_open=True),
+                                "min_displacement": dict(low=0.0, low_open=True),
+                                "gain": dict(low=1.0), "back_up": dict(low=0.0),
+                                "back_up_time": dict(low=0.0, low_open=True),
+                                "back_up_threat": dict(low=0.0, high=1.0)})
+        check_integers(self, {"levels": 0, "back_up_level": 0})
+
+    def progress_gain(self, level: int) -> float:
+        """The progress weight's factor at ``level`` (1 at level 0)."""
+        return self.gain ** level
