@@ -97,7 +97,7 @@ class ControlLawConfig:
     ramp, ``v_limit ** 2 / accel_limit`` (0.67 m for the default robot), the shortest linear
     ramp to a stop that its braking can follow (its deceleration ``v_max ** 2 * rho /
     r_thresh ** 2`` is ``accel_limit`` where the ramp begins). IROS 2012's 1.2 m is another
-    robot's: ours spent ~1.7 s on its last metre to a goal at 1.2 (docs/method.md section 1).
+    robot's: ours spent ~1.5 s on its last metre to a goal at 1.2 (docs/method.md section 1.3).
     With no acceleration limit (``accel_limit`` inf) it is IROS 2012's 1.2 m."""
 
     def __post_init__(self):
