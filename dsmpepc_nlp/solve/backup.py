@@ -77,9 +77,12 @@ def stands(plan: Plan, config: PlannerConfig) -> bool:
 def threatened(plan: Plan, config: PlannerConfig) -> bool:
     """Whether the robot expects to be struck where ``plan`` would leave it: the plan's
     survival to the horizon's end is below ``stall.back_up_threat`` (never when that is 0)."""
-    survival = plan.cost.survivability
-    return bool(config.stall.back_up_threat > 0.0 and np.size(survival)
-                and float(np.ravel(survival)[-1]) < config.stall.back_up_threat)
+    return _survival(plan) < config.stall.back_up_threat
+
+
+def _survival(plan: Plan) -> float:
+    """The plan's survivability at the horizon's end, ``p^s_N``."""
+    return float(plan.cost.survivability[-1])
 
 
 def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
@@ -103,8 +106,7 @@ def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
         why = "stalled and the plan stood"
     else:
         why = (f"the plan stood where it expects to be struck (survival "
-               f"{float(np.ravel(plan.cost.survivability)[-1]):.2f} < "
-               f"{config.stall.back_up_threat:g})")
+               f"{_survival(plan):.2f} < {config.stall.back_up_threat:g})")
     message = (f"{why} (exact cost {plan.fun:.3f}): backing up "
                f"{shape} at {config.stall.back_up:g} m/s (exact cost {total[best]:.3f}); "
                f"it replaced: {plan.message}")
