@@ -1,0 +1,47 @@
+"""tools/paired.py: two benchmark tables compared case by case, with the sign test."""
+
+import csv
+import json
+
+import pytest
+
+
+def write(path, outcomes, key="episode", times=None):
+    with open(path, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, [key, "variant", "outcome", "time_to_goal"])
+        writer.writeheader()
+        for i, outcome in enumerate(outcomes):
+            time = "" if outcome != "success" else (times or {}).get(i, 10.0)
+            writer.writerow({key: i, "variant": "ds-mpepc", "outcome": outcome,
+                             "time_to_goal": time})
+    return str(path)
+
+
+def test_discordant_cases_and_the_sign_test(tmp_path, capsys, tool):
+    a = write(tmp_path / "a.csv", ["success", "collision", "timeout", "success", "timeout"])
+    b = write(tmp_path / "b.csv", ["success", "success", "success", "deadlock", "success"],
+              times={1: 13.0, 2: 13.0, 4: 13.0})
+    assert tool("paired").main([a, b, "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["cases"] == 5 and result["only_a"] == ["3"]
+    assert result["only_b"] == ["1", "2", "4"]
+    assert result["success_a"] == pytest.approx(0.4) and result["success_b"] == pytest.approx(0.8)
+    assert result["p"] == pytest.approx(0.625)           # 1 against 3 of 4: 2 * 5/16
+    assert result["collisions_a"] == 1 and result["collisions_b"] == 0
+    assert result["time_a"] == pytest.approx(10.0) and result["time_b"] == pytest.approx(12.25)
+
+
+def test_the_sign_test_is_exact_and_symmetric(tool):
+    paired = tool("paired")
+    assert paired.sign_test(0, 0) == 1.0
+    assert paired.sign_test(2, 10) == pytest.approx(0.0386, abs=1e-4)
+    assert paired.sign_test(10, 2) == paired.sign_test(2, 10)
+    assert paired.sign_test(0, 9) == pytest.approx(2 / 2 ** 9)
+
+
+def test_barn_tables_pair_by_world_and_only_shared_cases_count(tmp_path, tool):
+    paired = tool("paired")
+    a = paired.load(write(tmp_path / "a.csv", ["success"] * 4, key="world"), None)
+    b = paired.load(write(tmp_path / "b.csv", ["success", "deadlock"], key="world"), None)
+    result = paired.compare(a, b)
+    assert result["cases"] == 2 and result["only_a"] == ["1"] and result["only_b"] == []
