@@ -104,5 +104,8 @@ def test_the_ramp_follows_the_robot_and_a_set_ramp_is_not_silently_replaced():
     own = configure({"control_law.r_thresh": 0.9, "control_law.r_thresh_from_robot": 0},
                     "ds-mpepc")
     assert own.control_law.r_thresh == 0.9
+    # switched off on the command line: IROS 2012's ramp, not the number derived before
+    off = configure({"control_law.r_thresh_from_robot": 0}, "ds-mpepc")
+    assert not off.control_law.r_thresh_from_robot and off.control_law.r_thresh == 1.2
     assert configure({"control_law.r_thresh": 0.9}, "ds-mpepc", "paper").control_law.r_thresh \
         == 0.9

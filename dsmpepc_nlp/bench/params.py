@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from ..core.config import PlannerConfig
+from ..core.config import IROS_RAMP, PlannerConfig
 from ..core.errors import InputError
 
 SECTIONS = ("robot", "control_law", "horizon", "bounds", "cost", "smoothing", "docking",
@@ -108,11 +108,15 @@ def replaced(config: PlannerConfig, params: dict) -> PlannerConfig:
             value = int(value)
         changes.setdefault(section, {})[field] = value
     parts = {s: dataclasses.replace(getattr(config, s), **c) for s, c in changes.items()}
+    law_changes = changes.get("control_law", {})
     law = parts.get("control_law", config.control_law)
-    if "r_thresh" in changes.get("control_law", {}) and law.r_thresh_from_robot:
+    if "r_thresh" in law_changes and law.r_thresh_from_robot:
         raise InputError(f"--param control_law.r_thresh={law.r_thresh!r}: the ramp is derived "
                          "from the robot (v_limit^2 / accel_limit) while "
                          "control_law.r_thresh_from_robot is on; set that to 0 as well")
+    if config.control_law.r_thresh_from_robot and not law.r_thresh_from_robot \
+            and "r_thresh" not in law_changes:    # switched off: IROS 2012's, not the derived
+        parts["control_law"] = dataclasses.replace(law, r_thresh=IROS_RAMP)
     return dataclasses.replace(config, **parts)
 
 

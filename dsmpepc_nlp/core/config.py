@@ -98,7 +98,10 @@ class ControlLawConfig:
     ramp to a stop that its braking can follow (its deceleration ``v_max ** 2 * rho /
     r_thresh ** 2`` is ``accel_limit`` where the ramp begins). IROS 2012's 1.2 m is another
     robot's: ours spent ~1.5 s on its last metre to a goal at 1.2 (docs/method.md section 1.3).
-    With no acceleration limit (``accel_limit`` inf) it is IROS 2012's 1.2 m."""
+    With no acceleration limit (``accel_limit`` inf) it is IROS 2012's 1.2 m. The derived value
+    is stored in ``r_thresh``: to switch the ramp off, build the law anew
+    (``ControlLawConfig(r_thresh_from_robot=False)``, 1.2 m) rather than ``replace`` a derived
+    one, which keeps its number (``--set control_law.r_thresh_from_robot=0`` does this)."""
 
     def __post_init__(self):
         validate_fields(self, {
