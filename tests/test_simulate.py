@@ -122,7 +122,28 @@ def test_the_episode_logs_pedestrians_and_a_follow_goal_trails_the_target():
     assert np.allclose(gap, 1.0)
     assert ep.outcomes == ["success"]
     assert ep.outcome_times[0] == pytest.approx(8.0)
-    assert ep.status_names(0).count("docked") == 0
+    assert ep.status_names(0).count("docked") > 0          # docking.follow, the product's
+
+
+def test_docking_at_a_followed_goal_keeps_the_follower_closer_and_the_paper_never_docks_there():
+    """Without docking, the goal (always within reach) is reached by the slowest arriving
+    trajectory each cycle, the cost's true optimum, and the follower trails; the paper preset
+    (``follow`` off) never docks at a moving goal."""
+    ped = Pedestrian.constant((2.0, 0.0), (0.6, 0.0))
+    agents = (Agent("a", RobotState(0.0, 0.0, 0.0), FollowGoal(0, distance=1.0, tolerance=1.0)),)
+    scenario = Scenario("follow", agents, pedestrians=(ped,), duration=10.0)
+    product = PlannerConfig.mpepc()
+    off = dataclasses.replace(product, docking=dataclasses.replace(product.docking, follow=False))
+    assert product.docking.follow and not PlannerConfig.paper("mpepc").docking.follow
+    runs = {name: simulate(scenario, c, SolverConfig(), np.random.default_rng(0))   # the NLP
+            for name, c in (("on", product), ("off", off))}
+    assert runs["off"].status_names(0).count("docked") == 0
+    assert runs["on"].status_names(0).count("docked") > 0
+    behind = {name: np.linalg.norm(e.ped_positions[:, 0] - e.states[0, :, :2], axis=-1)
+              for name, e in runs.items()}
+    # the last 4 s: 1.4 m behind with docking, 3.5-3.7 m without (a timeout; measured). The
+    # sampler's coarse set happens to miss the slow optimum and follows either way.
+    assert np.mean(behind["on"][-20:]) < np.mean(behind["off"][-20:]) - 0.5
 
 
 def test_two_robots_swap_without_touching_and_see_each_other():

@@ -30,11 +30,18 @@ class DockingConfig:
     Standing at the goal after arriving is the next task's risk, and counting it kept robots
     short of a goal with a person standing beside it (docs/method.md section 7.1). 0: read at
     the horizon's end."""
+    follow: bool = True
+    """Our extension (off in :meth:`PlannerConfig.paper`): dock at a goal that moves (a
+    followed person's point, ``FollowGoal``) as at a fixed one. The planner sees each cycle's
+    goal standing still, so a goal that walks on stays within reach, every arriving trajectory
+    earns the same progress and the action cost picks the slowest: the hall's follower trailed
+    3-3.5 m behind its goal and lost its person in the crowd. Docking heads for the goal at the
+    speed limit, slowed only by the law's ramp (docs/method.md section 7.1)."""
 
     def __post_init__(self):
         validate_fields(self, {"radius": dict(low=0.0), "min_survival": dict(low=0.0, high=1.0),
                                 "arrival_radius": dict(low=0.0)})
-        check_booleans(self, ("radius_from_reach",))
+        check_booleans(self, ("radius_from_reach", "follow"))
 
 
 @dataclass(frozen=True)

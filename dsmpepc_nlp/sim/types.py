@@ -95,7 +95,8 @@ class FixedGoal:
 
 @dataclass(frozen=True)
 class FollowGoal:
-    """Follow pedestrian ``pedestrian`` (index) at ``distance`` (m); never docked.
+    """Follow pedestrian ``pedestrian`` (index) at ``distance`` (m); docked at only with
+    ``DockingConfig.follow`` (the product's default, off in the paper preset).
 
     The goal each cycle is the pedestrian's position pulled back toward the robot by
     ``distance``. ``tolerance`` (m) is how much farther than ``distance`` the robot may end up.

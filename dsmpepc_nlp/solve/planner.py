@@ -139,8 +139,8 @@ class Planner:
         goal : array_like, (2,)
             Goal position, m.
         dock : bool
-            Dock at a fixed goal within the docking radius (:func:`.docking.docking_radius`;
-            False for moving goals).
+            Dock at the goal within the docking radius (:func:`.docking.docking_radius`). The
+            simulator docks at a moving (followed) goal only with ``docking.follow``.
         sample : bool
             Also run the sampler when the NLP or docking made the plan (for cross-checks and
             plots).
