@@ -194,6 +194,16 @@ def test_an_empty_file_and_a_folder_say_what_they_are(tmp_path):
         load_scenario(tmp_path / "folder")
 
 
+def test_a_built_in_name_beside_a_folder_of_that_name_is_the_built_in(tmp_path, monkeypatch):
+    """``--out hall`` of one run must not break ``--scenarios hall`` of the next."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "hall").mkdir()
+    assert load_scenario("hall").name == "hall"
+    (tmp_path / "mine").mkdir()
+    with pytest.raises(ScenarioError, match="is a folder"):
+        load_scenario("mine")
+
+
 def walled_scenario(tmp_path, start_noise):
     occupied = np.zeros((40, 40), bool)
     occupied[:, 20:24] = True                   # a wall at x = 1.0 .. 1.2 m

@@ -174,9 +174,14 @@ def builtin_names() -> list:
 
 
 def resolve(name_or_path) -> Path:
-    """The file of a built-in name (``t-corridor``) or of a path; ScenarioError if neither."""
+    """The file of a built-in name (``t-corridor``) or of a path; ScenarioError if neither. A
+    folder is never a scenario, so a built-in's name stays the built-in beside a folder of that
+    name (``--out hall`` of an earlier run)."""
     text = str(name_or_path)
     path = Path(text)
+    candidate = SCENARIO_DIR / f"{text}.yaml"
+    if path.is_dir() and path.suffix not in (".yaml", ".yml") and candidate.is_file():
+        return candidate
     if path.suffix in (".yaml", ".yml") or path.exists():
         if path.is_dir():
             raise ScenarioError(f"scenario {text!r}: is a folder; expected a scenario YAML file "
@@ -184,7 +189,6 @@ def resolve(name_or_path) -> Path:
         if not path.is_file():
             raise ScenarioError(f"scenario {text!r}: file not found")
         return path
-    candidate = SCENARIO_DIR / f"{text}.yaml"
     if candidate.is_file():
         return candidate
     known = ", ".join(builtin_names()) or "(none installed)"
