@@ -24,6 +24,7 @@ from ..core.jsonio import dumps, json_clean
 from ..sim.episode import Episode
 from ..sim.panels import cost_panels
 from ..viz import figures
+from .escape import escapes
 from .failures import CLASSES, classify
 from .results import TABLE_FORMAT
 
@@ -31,6 +32,10 @@ REPORT = "failures"
 """Stem of the report files the command writes into the folder."""
 PANEL_SAMPLES = 1024
 """Samples per cost panel: a quarter of ``run --panels``'s, enough to see the cost's shape."""
+
+
+ESCAPES = ("forward", "rung", "full", "none", "not searched")
+"""The escape search's answers (:func:`.escape.escapes`), narrowest way out first."""
 
 
 def unsuccessful(row: dict) -> bool:
@@ -65,8 +70,10 @@ def read_tables(out_dir) -> list:
     return tables
 
 
-def classify_folder(out_dir) -> dict:
-    """The report of ``out_dir``: runs, counts per class, each failure with its evidence."""
+def classify_folder(out_dir, escape: bool = False) -> dict:
+    """The report of ``out_dir``: runs, counts per class, each failure with its evidence; with
+    ``escape``, every collision also searched for a way out (:mod:`.escape`), counted in
+    ``escapes``."""
     folder = Path(out_dir)
     failures, unclassified, n_rows, n_failed = [], [], 0, 0
     for stem, keys, rows in read_tables(folder):
@@ -88,10 +95,18 @@ def classify_folder(out_dir) -> dict:
                 continue
             for robot, outcome in enumerate(episode.outcomes):
                 if outcome != "success":
+                    failure = classify(episode, robot).to_dict()
+                    if escape and outcome == "collision":
+                        failure["evidence"].update(escapes(episode, robot))
                     failures.append({"table": stem, "label": label, "episode_file": name,
-                                     **classify(episode, robot).to_dict()})
+                                     **failure})
     counts = Counter(f["class"] for f in failures)
-    return {"out": str(folder), "runs": n_rows, "unsuccessful_runs": n_failed,
+    report = {"out": str(folder), "runs": n_rows, "unsuccessful_runs": n_failed}
+    if escape:
+        found = Counter(str(f["evidence"]["escape"]).split(":")[0] for f in failures
+                        if "escape" in f["evidence"])
+        report["escapes"] = {name: found[name] for name in ESCAPES if found[name]}
+    return {**report,
             "counts": {name: counts[name] for name in CLASSES if counts[name]},
             "unclassified": len(unclassified), "failures": failures,
             "unclassified_runs": unclassified}
@@ -130,6 +145,10 @@ def markdown(report: dict) -> str:
     lines += [f"| {name} | {n} |" for name, n in report["counts"].items()]
     if report["unclassified"]:
         lines.append(f"| unclassified | {report['unclassified']} |")
+    if "escapes" in report:
+        lines += ["", "Collisions by their narrowest way out within the robot's limits, against "
+                  "the logged people (`--escape`):", "", "| way out | collisions |", "|---|---|"]
+        lines += [f"| {name} | {n} |" for name, n in report["escapes"].items()]
     for name in report["counts"]:
         lines += ["", f"## {name}", ""]
         if any(Path(f).name == f"{REPORT}-{name}.png" for f in report.get("figures", [])):
@@ -155,11 +174,15 @@ def add_arguments(p) -> None:
                    help="examples per class in its figure (0: no figures; default 3)")
     p.add_argument("--no-panels", action="store_true",
                    help="leave out the cost panels of the stuck cycle (faster)")
+    p.add_argument("--escape", action="store_true",
+                   help="also search every collision for a way out within the robot's limits "
+                   "against the logged people (valid where they do not react to the robot: "
+                   "CrowdNav invisible, ETH/UCY, the scenarios; seconds per collision)")
     p.add_argument("--json", action="store_true", help="print the report as one JSON object")
 
 
 def run(args) -> int:
-    report = classify_folder(args.out_dir)
+    report = classify_folder(args.out_dir, escape=args.escape)
     report["figures"] = draw_figures(report, args.out_dir, args.figures,
                                      panels=not args.no_panels) if args.figures else []
     folder = Path(args.out_dir)
@@ -174,6 +197,9 @@ def run(args) -> int:
         print(f"  {name:{width}s} {n}")
     if report["unclassified"]:
         print(f"  {'unclassified':{width}s} {report['unclassified']}")
+    if "escapes" in report:
+        print("collisions by their narrowest way out (forward only, the rung's reverse, a full-"
+              "speed reverse, none): " + ", ".join(f"{k} {n}" for k, n in report["escapes"].items()))
     print(f"report: {folder / (REPORT + '.json')}, {folder / (REPORT + '.md')}")
     for path in report["figures"]:
         print(f"figure: {path}")
