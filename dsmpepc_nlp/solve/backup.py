@@ -45,25 +45,59 @@ def back_up_trajectories(state, config: PlannerConfig) -> Trajectory:
     The speed is capped at what one plan period's braking takes back (``accel_limit * dt``,
     0.3 m/s for the default robot), so the next plan's law starts from a stop: the law's
     rollout, the compiled kernel and the graph never see a reversing speed."""
-    robot, dt, n = config.robot, config.horizon.dt, config.horizon.n_steps
+    dt, n = config.horizon.dt, config.horizon.n_steps
     speed = back_up_speed(config)
-    turn = min(speed / TURN_RADIUS, robot.omega_limit)
-    reversing = int(round(config.stall.back_up_time / dt))
-    poses = np.empty((3, n + 1, 3))
-    v, omega = np.empty((3, n)), np.empty((3, n))
-    start = clamp_measured(state, config)     # where the law's rollouts start too
+    turn = min(speed / TURN_RADIUS, config.robot.omega_limit)
+    reversing = np.arange(n) < int(round(config.stall.back_up_time / dt))
+    commands = np.zeros((3, n, 2))
     for i, sign in enumerate((0.0, 1.0, -1.0)):
-        pose = np.array(state.pose, dtype=float)
-        v_prev, omega_prev = start
-        poses[i, 0] = pose
-        for k in range(n):
-            v_cmd, omega_cmd = (-speed, sign * turn) if k < reversing else (0.0, 0.0)
-            v_prev = float(rate_limit(v_cmd, v_prev, robot.accel_limit, dt, 0.0))
-            omega_prev = float(rate_limit(omega_cmd, omega_prev, robot.alpha_limit, dt, 0.0))
-            pose = np.array(arc_step(pose, v_prev, omega_prev, dt))
-            poses[i, k + 1], v[i, k], omega[i, k] = pose, v_prev, omega_prev
+        commands[i, reversing] = (-speed, sign * turn)
+    return _commanded(state, config, commands)
+
+
+DODGE_TURN_STEPS = 8
+"""A dodge turns for 0 to 7 plan periods (up to 1.4 s: a half turn at 1.5 rad/s takes 2.1 s,
+a quarter turn 1.0 s plus the turn rate's ramp)."""
+
+
+def dodge_trajectories(state, config: PlannerConfig) -> Trajectory:
+    """Forward dodges from ``state`` (``StallConfig.dodge``): turn at ``omega_limit`` either
+    way for 0 to :data:`DODGE_TURN_STEPS` - 1 plan periods, at a standstill or half or full
+    ``v_limit``, then straight ahead at half or full ``v_limit``: 96 trajectories, within the
+    robot's acceleration limits from where the law's rollouts start. Never a reversing speed,
+    so the next plan's law starts where it always does."""
+    robot, n = config.robot, config.horizon.n_steps
+    speeds = (0.0, 0.5 * robot.v_limit, robot.v_limit)
+    commands = []
+    for sign in (1.0, -1.0):
+        for turning in range(DODGE_TURN_STEPS):
+            for v_turn in speeds:
+                for v_ahead in speeds[1:]:
+                    c = np.tile((v_ahead, 0.0), (n, 1))
+                    c[:turning] = (v_turn, sign * robot.omega_limit)
+                    commands.append(c)
+    return _commanded(state, config, np.array(commands))
+
+
+def _commanded(state, config: PlannerConfig, commands) -> Trajectory:
+    """The trajectories of command sequences ``commands`` (m, n, 2) of ``(v, omega)``, each
+    step rate-limited from the last along the exact arc, from ``clamp_measured(state)``."""
+    robot, dt = config.robot, config.horizon.dt
+    m, n = commands.shape[:2]
+    poses = np.empty((m, n + 1, 3))
+    v, omega = np.empty((m, n)), np.empty((m, n))
+    start = clamp_measured(state, config)     # where the law's rollouts start too
+    v_prev = np.full(m, float(start[0]))
+    omega_prev = np.full(m, float(start[1]))
+    poses[:, 0] = np.asarray(state.pose, dtype=float)
+    for k in range(n):
+        v_prev = np.asarray(rate_limit(commands[:, k, 0], v_prev, robot.accel_limit, dt, 0.0))
+        omega_prev = np.asarray(rate_limit(commands[:, k, 1], omega_prev, robot.alpha_limit, dt,
+                                           0.0))
+        poses[:, k + 1] = np.stack(arc_step(poses[:, k].T, v_prev, omega_prev, dt), axis=-1)
+        v[:, k], omega[:, k] = v_prev, omega_prev
     stop = np.array([config.bounds.r_min, 0.0, 0.0, 0.0])
-    return Trajectory(np.tile(stop, (3, 1)), poses, v, omega, poses[:, -1].copy())
+    return Trajectory(np.tile(stop, (m, 1)), poses, v, omega, poses[:, -1].copy())
 
 
 def stands(plan: Plan, config: PlannerConfig) -> bool:
@@ -86,32 +120,43 @@ def _survival(plan: Plan) -> float:
 
 
 def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
-    """The back-up plan when the rung applies (on, the plan stands, and the ladder is at
-    ``back_up_level`` or above or the plan is :func:`threatened`) and a reverse trajectory's
-    exact cost is below the plan's; otherwise None (keep ``plan``)."""
+    """The rung's plan, or None (keep ``plan``). With the rung on: reverse trajectories when
+    the plan stands and the ladder is at ``back_up_level`` or above or the plan is
+    :func:`threatened`; forward dodges (``stall.dodge``) when it is threatened, standing or
+    not. The cheapest of them by the exact cost replaces the plan if it is cheaper."""
     config = cycle.config
-    if config.stall.back_up <= 0.0 or not stands(plan, config):
+    if config.stall.back_up <= 0.0:
         return None
-    if level < config.stall.back_up_level and not threatened(plan, config):
+    threat = threatened(plan, config)
+    reverse = stands(plan, config) and (level >= config.stall.back_up_level or threat)
+    sets = ([back_up_trajectories(state, config)] if reverse else []) + (
+        [dodge_trajectories(state, config)] if threat and config.stall.dodge else [])
+    if not sets:
         return None
-    candidates = back_up_trajectories(state, config)
+    candidates = Trajectory(*(np.concatenate([getattr(t, f.name) for t in sets])
+                              for f in dataclasses.fields(Trajectory)))
     costs = evaluate(candidates, cycle.world, cycle.goal, config)
     total = np.where(np.isfinite(costs.total), costs.total, np.inf)
     best = int(np.argmin(total))
     if not total[best] < plan.fun:
         return None
     chosen = candidates[best]
-    shape = ("straight", "curving left", "curving right")[best]
-    if level >= config.stall.back_up_level:
+    backing = reverse and best < 3
+    if level >= config.stall.back_up_level and backing:
         why = "stalled and the plan stood"
     else:
-        why = (f"the plan stood where it expects to be struck (survival "
-               f"{_survival(plan):.2f} < {config.stall.back_up_threat:g})")
-    message = (f"{why} (exact cost {plan.fun:.3f}): backing up "
-               f"{shape} at {config.stall.back_up:g} m/s (exact cost {total[best]:.3f}); "
+        why = (f"the plan {'stood' if stands(plan, config) else 'went'} where it expects to be "
+               f"struck (survival {_survival(plan):.2f} < {config.stall.back_up_threat:g})")
+    if backing:
+        what = (f"backing up {('straight', 'curving left', 'curving right')[best]} at "
+                f"{config.stall.back_up:g} m/s")
+    else:
+        what = (f"dodging: turning {'left' if chosen.omega[0] > 0 else 'right'} at "
+                f"{abs(float(chosen.omega[0])):.2f} rad/s, then ahead")
+    message = (f"{why} (exact cost {plan.fun:.3f}): {what} (exact cost {total[best]:.3f}); "
                f"it replaced: {plan.message}")
     v0, omega0 = float(chosen.v[0]), float(chosen.omega[0])
     control = (v0, omega0) if math.isfinite(v0) and math.isfinite(omega0) else (0.0, 0.0)
     return dataclasses.replace(plan, x=chosen.z, fun=float(total[best]), success=True,
                                message=message, trajectory=chosen, control=control,
-                               cost=costs[best], status="backing-up")
+                               cost=costs[best], status="backing-up" if backing else "dodging")
