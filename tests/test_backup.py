@@ -1,7 +1,7 @@
 """The stall ladder's back-up rung (solve/backup.py): reverse trajectories within the robot's
 limits, costed by the exact cost, taken only over a plan that stands, once stalled (the
 ladder's ``back_up_level``) or where the robot expects to be struck (``back_up_threat``), and
-only when cheaper."""
+only when cheaper; and its forward dodges, over a plan the robot expects to be struck on."""
 
 import dataclasses
 
@@ -110,6 +110,42 @@ def test_a_person_walking_at_a_standing_robot_makes_it_back_up_at_once_with_the_
     assert Planner(gated, solver).plan(state, World(), GOAL).status != "backing-up"
 
 
+def test_the_dodges_turn_hard_then_go_ahead_forward_within_the_limits():
+    state = RobotState(0.0, 0.0, 0.0, 0.4, -0.5)
+    config = PlannerConfig()
+    t = backup.dodge_trajectories(state, config)
+    robot, dt = config.robot, config.horizon.dt
+    assert t.poses.shape == (96, config.horizon.n_steps + 1, 3)
+    assert np.all(t.poses[:, 0] == [0.0, 0.0, 0.0])
+    assert np.min(t.v) >= 0.0 and np.max(t.v) <= robot.v_limit + 1e-12     # never reversing
+    assert np.max(np.abs(t.omega)) <= robot.omega_limit + 1e-12
+    v = np.concatenate([np.full((96, 1), 0.4), t.v], axis=1)
+    omega = np.concatenate([np.full((96, 1), -0.5), t.omega], axis=1)
+    assert np.max(np.abs(np.diff(v, axis=1))) <= robot.accel_limit * dt + 1e-12
+    assert np.max(np.abs(np.diff(omega, axis=1))) <= robot.alpha_limit * dt + 1e-12
+    turned = t.poses[:, -1, 2]
+    assert turned.max() > 1.5 and turned.min() < -1.5                      # both ways, hard
+
+
+def test_a_person_overtaking_faster_than_the_robot_makes_it_dodge_off_the_line():
+    """From behind at 1.3 m/s the person outruns anything ahead, and the law leaves the line
+    only along its slow curve: the dodge turns off at once (``stall.dodge``)."""
+    state = RobotState(0.0, 0.0, 0.0, 0.3, 0.0)
+    behind = World(obstacles=[DynamicObstacle.pedestrian((-1.2, 0.0), (1.3, 0.0), 0.3)])
+    solver = SolverConfig.sampling(n_samples=256)
+    on = PlannerConfig()
+    off = dataclasses.replace(on, stall=dataclasses.replace(on.stall, dodge=False))
+    assert on.stall.dodge and not PlannerConfig.paper().stall.dodge
+    kept = Planner(off, solver).plan(state, behind, GOAL)
+    assert kept.status == "sampling" and backup.threatened(kept, on)
+    assert not backup.stands(kept, on)                      # threatened while moving
+    dodged = Planner(on, solver).plan(state, behind, GOAL)
+    assert dodged.status == "dodging" and "dodging: turning" in dodged.message
+    assert dodged.fun < kept.fun
+    assert dodged.cost.survivability[-1] > 2 * kept.cost.survivability[-1]
+    assert abs(dodged.control[1]) > abs(kept.control[1])
+
+
 def test_a_robot_standing_at_its_goal_does_not_back_away_by_default():
     """What level 0 did (docs/results.md) and level 1 does not: the stall monitor never counts
     a robot at its goal as stalled, so the rung leaves it standing there."""
@@ -125,7 +161,7 @@ def test_switched_off_never_backs_up_and_a_moving_plan_is_kept():
     state = RobotState(0.0, 0.0, 0.0)
     assert all(planner.plan(state, person_just_ahead(), GOAL).status != "backing-up"
                for _ in range(12))
-    # a plan that drives off is never replaced, whatever the ladder says
+    # a plan that drives off unthreatened is never replaced, whatever the ladder says
     cycle = Cycle.prepare(state, World(), GOAL, ON)
     moving = Planner(ON, SolverConfig.sampling(n_samples=256)).plan(state, World(), GOAL)
     assert not backup.stands(moving, ON)
@@ -135,7 +171,8 @@ def test_switched_off_never_backs_up_and_a_moving_plan_is_kept():
 @pytest.mark.parametrize("changes, field", [({"back_up": -0.1}, "back_up"),
                                             ({"back_up_time": 0.0}, "back_up_time"),
                                             ({"back_up_level": -1}, "back_up_level"),
-                                            ({"back_up_threat": 1.5}, "back_up_threat")])
+                                            ({"back_up_threat": 1.5}, "back_up_threat"),
+                                            ({"dodge": "yes"}, "dodge")])
 def test_bad_back_up_settings_are_refused_by_name(changes, field):
     with pytest.raises(InputError, match=field):
         StallConfig(**changes)
