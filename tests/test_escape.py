@@ -4,13 +4,13 @@ import math
 
 import numpy as np
 import pytest
+from test_failures import DT, make_episode, standing
 
 from dsmpepc_nlp.bench import escape
 from dsmpepc_nlp.bench.failure_report import classify_folder
 from dsmpepc_nlp.bench.results import ResultTable, keep_failure
 from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.world import OccupancyGrid
-from test_failures import DT, make_episode, standing
 
 
 def walker(start, velocity, n):

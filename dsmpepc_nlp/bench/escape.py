@@ -2,15 +2,16 @@
 
 For a run that ended in a collision, :func:`search` starts from the robot's logged state
 :data:`LOOKBACK` seconds before the contact, or where the person it touched was first seen
-walking if that is later (no planner knows before where a standing person will go), and tries every sequence of
-commands the simulator could have executed: each step changes the speed and the turn rate by
-``-max``, 0 or ``+max`` (the robot's acceleration limits over one plan period), holds them for
-the simulator's step along the exact arc, and keeps only states whose footprint touches no
-pedestrian (at their logged positions) and no map cell at any logged time up to and including
-the contact, then for :data:`HOLD` more seconds against the people walking on at their
-last logged velocity (the log ends at the contact). States closer than :data:`CELL` (and :data:`HEADING_CELL`) with the same commands
-are merged, so the search is exhaustive over those commands until :data:`MAX_STATES` would be
-exceeded (then a seeded subset goes on, and the answer says it was not exhaustive).
+walking if that is later (no planner knows before where a standing person will go), and tries
+every sequence of commands the simulator could have executed: each step changes the speed and
+the turn rate by ``-max``, 0 or ``+max`` (the robot's acceleration limits over one plan
+period), holds them for the simulator's step along the exact arc, and keeps only states whose
+footprint touches no pedestrian (at their logged positions) and no map cell at any logged time
+up to and including the contact, then for :data:`HOLD` more seconds against the people walking
+on at their last logged velocity (the log ends at the contact). States closer than
+:data:`CELL` (and :data:`HEADING_CELL`) with the same commands are merged, so the search is
+exhaustive over those commands until :data:`MAX_STATES` would be exceeded (then a seeded
+subset goes on, and the answer says it was not exhaustive).
 
 It is valid only where the pedestrians do not react to the robot (CrowdNav's invisible robot,
 the ETH/UCY replays, the built-in scenarios): their logged paths are then what they would have
@@ -52,8 +53,9 @@ MAX_STATES = 100_000
 @dataclass(frozen=True)
 class Escape:
     """The answer of :func:`search`: ``found`` a collision-free way from ``start`` (s) through
-    ``contact`` (s) and :data:`HOLD` beyond, with reverses up to ``reverse`` m/s; ``exhaustive`` when no step's states
-    were cut to :data:`MAX_STATES`; ``states`` the largest number kept at one step."""
+    ``contact`` (s) and :data:`HOLD` beyond, with reverses up to ``reverse`` m/s;
+    ``exhaustive`` when no step's states were cut to :data:`MAX_STATES`; ``states`` the
+    largest number kept at one step."""
 
     start: float
     contact: float
@@ -162,7 +164,8 @@ def _clear(states, fp, people, radii, world) -> np.ndarray:
     py = states[:, None, 1] + s[:, None] * fp[None, :, 0] + c[:, None] * fp[None, :, 1]
     ok = np.ones(len(states), dtype=bool)
     if len(radii):
-        d = np.hypot(px[..., None] - people[None, None, :, 0], py[..., None] - people[None, None, :, 1])
+        d = np.hypot(px[..., None] - people[None, None, :, 0],
+                      py[..., None] - people[None, None, :, 1])
         ok &= np.all(d - fp[None, :, 2, None] - radii[None, None, :] >= 0.0, axis=(1, 2))
     if world is not None:
         points = np.stack([px, py], axis=-1).reshape(-1, 2)

@@ -198,8 +198,9 @@ def run(args) -> int:
     if report["unclassified"]:
         print(f"  {'unclassified':{width}s} {report['unclassified']}")
     if "escapes" in report:
+        found = ", ".join(f"{k} {n}" for k, n in report["escapes"].items())
         print("collisions by their narrowest way out (forward only, the rung's reverse, a full-"
-              "speed reverse, none): " + ", ".join(f"{k} {n}" for k, n in report["escapes"].items()))
+              f"speed reverse, none): {found}")
     print(f"report: {folder / (REPORT + '.json')}, {folder / (REPORT + '.md')}")
     for path in report["figures"]:
         print(f"figure: {path}")
