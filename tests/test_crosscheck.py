@@ -6,8 +6,9 @@ import pytest
 
 from dsmpepc_nlp.bench.crosscheck import CrosscheckResult, crosscheck
 from dsmpepc_nlp.bench.scenes import demo_cycles
-from dsmpepc_nlp.core.config import PlannerConfig
+from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.solver_config import SolverConfig
+from dsmpepc_nlp.core.world import World
 
 
 def test_demo_cycles_are_reproducible_and_move_the_robot():
@@ -35,6 +36,28 @@ def test_share_within_tol_counts_non_finite_as_miss():
     result = CrosscheckResult(np.array([1.0, math.nan]), np.array([1.0, 1.0]),
                               np.array([0.0, math.nan]))
     assert result.share_within_tol == 0.5
+
+
+def test_the_share_where_the_nlp_plans_leaves_out_the_docked_cycles():
+    gap = np.array([0.0, 0.5, 0.0, 0.2])
+    zeros = np.zeros(4)
+    docked = CrosscheckResult(zeros, zeros, gap, docked=np.array([False, True, False, False]))
+    assert docked.share_within_tol == 0.5                 # every cycle: the headline
+    assert docked.share_within_tol_undocked == pytest.approx(2 / 3)
+    assert docked.to_dict()["docked_cycles"] == 1
+    assert math.isnan(CrosscheckResult(zeros, zeros, gap).share_within_tol_undocked)
+
+
+def test_a_cycle_near_a_free_fixed_goal_is_one_the_planner_docks_in():
+    """The planner's own docking test flags the cycle 1.5 m from a goal on an empty floor, not
+    one 20 m away, and none where the planner would not dock (``dock=False``)."""
+    config = PlannerConfig()
+    state = RobotState(0.0, 0.0, 0.0)
+    cycles = [(state, World(), np.array([1.5, 0.0])), (state, World(), np.array([20.0, 0.0]))]
+    solver = SolverConfig().replace(n_spread=0, max_iter=5)
+    result = crosscheck(cycles, config, solver, n_samples=64)
+    assert result.docked.tolist() == [True, False]
+    assert not crosscheck(cycles, config, solver, n_samples=64, dock=False).docked.any()
 
 
 def test_run_bench_shape():

@@ -26,6 +26,9 @@ class CrosscheckResult:
         :attr:`~dsmpepc_nlp.solve.records.Plan.status` of each NLP plan.
     tol : float
         The tolerance of :attr:`share_within_tol`.
+    docked : ndarray of bool, (cycles,)
+        Whether the planner with docking on would have docked in each cycle: there the robot's
+        plan is the docking trajectory and the NLP is never asked (empty when not known).
     """
 
     nlp_cost: np.ndarray
@@ -33,6 +36,7 @@ class CrosscheckResult:
     gap: np.ndarray
     nlp_status: tuple = field(default=())
     tol: float = 0.01
+    docked: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
 
     @property
     def cycles(self) -> int:
@@ -40,13 +44,21 @@ class CrosscheckResult:
 
     @property
     def share_within_tol(self) -> float:
-        """Share of cycles with ``gap <= tol`` (non-finite gaps count as misses)."""
-        if self.gap.size == 0:
+        """Share of cycles with ``gap <= tol`` (non-finite gaps count as misses): every cycle,
+        docked or not (the command's headline figure)."""
+        return _share(self.gap, self.tol)
+
+    @property
+    def share_within_tol_undocked(self) -> float:
+        """:attr:`share_within_tol` over the cycles the planner would not dock in, the ones
+        where the NLP's plan is the robot's (NaN when :attr:`docked` is not known)."""
+        if self.docked.size != self.gap.size:
             return math.nan
-        return float(np.mean(np.where(np.isfinite(self.gap), self.gap <= self.tol, False)))
+        return _share(self.gap[~self.docked], self.tol)
 
     def to_dict(self) -> dict:
-        """Summary: ``cycles``, ``gap_median``, ``gap_p95``, ``share_within_tol``, ``tol``."""
+        """Summary: ``cycles``, ``gap_median``, ``gap_p95``, ``share_within_tol``, ``tol``,
+        ``docked_cycles`` and ``share_within_tol_undocked``."""
         finite = self.gap[np.isfinite(self.gap)]
         return {
             "cycles": self.cycles,
@@ -54,11 +66,20 @@ class CrosscheckResult:
             "gap_p95": float(np.percentile(finite, 95)) if finite.size else math.nan,
             "share_within_tol": self.share_within_tol,
             "tol": self.tol,
+            "docked_cycles": int(np.sum(self.docked)),
+            "share_within_tol_undocked": self.share_within_tol_undocked,
         }
 
 
+def _share(gap: np.ndarray, tol: float) -> float:
+    """Share of ``gap <= tol``, non-finite gaps counted as misses; NaN for no gaps."""
+    if gap.size == 0:
+        return math.nan
+    return float(np.mean(np.where(np.isfinite(gap), gap <= tol, False)))
+
+
 def crosscheck(cycles, config: PlannerConfig, solver_config: SolverConfig | None = None,
-               n_samples: int = 4096, tol: float = 0.01) -> CrosscheckResult:
+               n_samples: int = 4096, tol: float = 0.01, dock: bool = True) -> CrosscheckResult:
     """Plan every cycle with the NLP and with the sampler; compare exact costs.
 
     Parameters
@@ -72,6 +93,10 @@ def crosscheck(cycles, config: PlannerConfig, solver_config: SolverConfig | None
         Samples of the reference sampling planner (plus its structured starts).
     tol : float
         Gap counted as "as good", in cost units.
+    dock : bool
+        Whether the planner would dock at these cycles' goal (a fixed goal, or a followed one
+        with ``docking.follow``): each cycle's :attr:`CrosscheckResult.docked` says whether
+        ``config``'s docking test would then take it.
 
     Notes
     -----
@@ -79,6 +104,7 @@ def crosscheck(cycles, config: PlannerConfig, solver_config: SolverConfig | None
     stall monitor: its ladder changes the cost from one cycle to the next (the progress weight
     up to x8, and the gaps in cost units with it), and the two solvers are compared on one cost.
     """
+    from ..solve import docking
     from ..solve.planner import Planner
 
     config = dataclasses.replace(config, stall=dataclasses.replace(config.stall, levels=0))
@@ -87,13 +113,16 @@ def crosscheck(cycles, config: PlannerConfig, solver_config: SolverConfig | None
     nlp.prepare()
     sampler = Planner(config, SolverConfig.sampling(n_samples=n_samples,
                                                     seed=solver_config.seed))
-    nlp_cost, sampled_cost, statuses = [], [], []
+    nlp_cost, sampled_cost, statuses, docked = [], [], [], []
     for state, world, goal in cycles:
         plan = nlp.plan(state, world, goal, dock=False)
+        # The same test the planner docks by, on this cycle's exact cost.
+        docked.append(dock and nlp.last_evaluator is not None
+                      and docking.dock(nlp.last_evaluator, config) is not None)
         reference = sampler.plan(state, world, goal, dock=False)
         nlp_cost.append(plan.fun)
         sampled_cost.append(reference.fun)
         statuses.append(plan.status)
     nlp_cost, sampled_cost = np.array(nlp_cost, dtype=float), np.array(sampled_cost, dtype=float)
     return CrosscheckResult(nlp_cost, sampled_cost, nlp_cost - sampled_cost, tuple(statuses),
-                            tol)
+                            tol, np.array(docked, dtype=bool))
