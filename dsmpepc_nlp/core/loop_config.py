@@ -105,6 +105,14 @@ class StallConfig:
     crossing (``dsmpepc failures --escape``) found a forward way out in 18 of 20 collisions
     (ours; docs/method.md section 7.5). On by default since the tuning episodes (CrowdNav seed
     1, three settings; ETH/UCY eth and hotel): 15 won, 7 lost, collisions 49 -> 37."""
+    dodge_within: float = 5.0
+    """s: the dodges answer a blow expected this soon, where the plan's survival at this time
+    (the first step at or after it; the horizon's end when it is longer) is below
+    ``back_up_threat``; the reverse keeps the horizon's end. 5 s, the default horizon: any
+    threat the gate sees. 1 s is about the time a dodge takes to turn a quarter turn at the
+    full turn rate: a blow further off is one the law's own plans can still steer around,
+    and a dodge taken against it can turn the robot away from its way (the built-in hall's
+    follower, MPEPC, docs/results.md)."""
 
     def __post_init__(self):
         check_booleans(self, ("dodge",))
@@ -112,7 +120,8 @@ class StallConfig:
                                 "min_displacement": dict(low=0.0, low_open=True),
                                 "gain": dict(low=1.0), "back_up": dict(low=0.0),
                                 "back_up_time": dict(low=0.0, low_open=True),
-                                "back_up_threat": dict(low=0.0, high=1.0)})
+                                "back_up_threat": dict(low=0.0, high=1.0),
+                                "dodge_within": dict(low=0.0, low_open=True)})
         check_integers(self, {"levels": 0, "back_up_level": 0})
 
     def progress_gain(self, level: int) -> float:

@@ -108,15 +108,19 @@ def stands(plan: Plan, config: PlannerConfig) -> bool:
     return path < config.stall.min_displacement
 
 
-def threatened(plan: Plan, config: PlannerConfig) -> bool:
-    """Whether the robot expects to be struck where ``plan`` would leave it: the plan's
-    survival to the horizon's end is below ``stall.back_up_threat`` (never when that is 0)."""
-    return _survival(plan) < config.stall.back_up_threat
+def threatened(plan: Plan, config: PlannerConfig, within: float = math.inf) -> bool:
+    """Whether the robot expects to be struck on ``plan`` within ``within`` seconds (the
+    horizon's end by default): the plan's survival then is below ``stall.back_up_threat``
+    (never when that is 0)."""
+    return _survival(plan, config, within) < config.stall.back_up_threat
 
 
-def _survival(plan: Plan) -> float:
-    """The plan's survivability at the horizon's end, ``p^s_N``."""
-    return float(plan.cost.survivability[-1])
+def _survival(plan: Plan, config: PlannerConfig, within: float = math.inf) -> float:
+    """The plan's survivability at the first step at or after ``within`` seconds, the
+    horizon's end ``p^s_N`` when that is later."""
+    survival = plan.cost.survivability
+    steps = math.ceil(within / config.horizon.dt - 1e-9) if math.isfinite(within) else math.inf
+    return float(survival[min(steps, len(survival) - 1)])
 
 
 def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
@@ -129,8 +133,9 @@ def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
         return None
     threat = threatened(plan, config)
     reverse = stands(plan, config) and (level >= config.stall.back_up_level or threat)
+    dodge = config.stall.dodge and threatened(plan, config, config.stall.dodge_within)
     sets = ([back_up_trajectories(state, config)] if reverse else []) + (
-        [dodge_trajectories(state, config)] if threat and config.stall.dodge else [])
+        [dodge_trajectories(state, config)] if dodge else [])
     if not sets:
         return None
     candidates = Trajectory(*(np.concatenate([getattr(t, f.name) for t in sets])
@@ -145,8 +150,12 @@ def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
     if level >= config.stall.back_up_level and backing:
         why = "stalled and the plan stood"
     else:
+        within = math.inf if backing else config.stall.dodge_within
+        soon = "" if backing or _survival(plan, config, within) == _survival(plan, config) \
+            else f" within {within:g} s"
         why = (f"the plan {'stood' if stands(plan, config) else 'went'} where it expects to be "
-               f"struck (survival {_survival(plan):.2f} < {config.stall.back_up_threat:g})")
+               f"struck{soon} (survival {_survival(plan, config, within):.2f} < "
+               f"{config.stall.back_up_threat:g})")
     if backing:
         what = (f"backing up {('straight', 'curving left', 'curving right')[best]} at "
                 f"{config.stall.back_up:g} m/s")
