@@ -146,6 +146,33 @@ def test_a_person_overtaking_faster_than_the_robot_makes_it_dodge_off_the_line()
     assert abs(dodged.control[1]) > abs(kept.control[1])
 
 
+def test_the_dodges_answer_only_a_blow_expected_within_dodge_within(monkeypatch):
+    """Three people abreast walking at the robot from 3.5 m strike the law's plan two to three
+    seconds out: the gate sees the threat at the horizon's end, so with ``dodge_within`` at the
+    horizon (5 s) the rung builds its dodges, and with 1 s it does not (nothing strikes within
+    1 s); the overtaking person of the test above, a blow within the second, is dodged either
+    way."""
+    state = RobotState(0.0, 0.0, 0.0, 0.3, 0.0)
+    head_on = World(obstacles=[DynamicObstacle.pedestrian((3.5, y), (-1.0, 0.0), 0.3)
+                               for y in (-0.7, 0.0, 0.7)])
+    solver = SolverConfig.sampling(n_samples=256)
+    on = PlannerConfig()
+    soon = dataclasses.replace(on, stall=dataclasses.replace(on.stall, dodge_within=1.0))
+    rung_off = dataclasses.replace(on, stall=dataclasses.replace(on.stall, back_up=0.0))
+    kept = Planner(rung_off, solver).plan(state, head_on, GOAL)      # the law's own plan
+    assert backup.threatened(kept, on) and not backup.threatened(kept, on, 1.0)
+    built = []
+    original = backup.dodge_trajectories
+    monkeypatch.setattr(backup, "dodge_trajectories",
+                        lambda *a: built.append(1) or original(*a))
+    for config, expected in ((on, 1), (soon, 0)):
+        built.clear()
+        backup.consider(kept, state, Cycle.prepare(state, head_on, GOAL, config), level=0)
+        assert len(built) == expected
+    behind = World(obstacles=[DynamicObstacle.pedestrian((-1.2, 0.0), (1.3, 0.0), 0.3)])
+    assert Planner(soon, solver).plan(state, behind, GOAL).status == "dodging"
+
+
 def test_a_robot_standing_at_its_goal_does_not_back_away_by_default():
     """What level 0 did (docs/results.md) and level 1 does not: the stall monitor never counts
     a robot at its goal as stalled, so the rung leaves it standing there."""
@@ -172,7 +199,8 @@ def test_switched_off_never_backs_up_and_a_moving_plan_is_kept():
                                             ({"back_up_time": 0.0}, "back_up_time"),
                                             ({"back_up_level": -1}, "back_up_level"),
                                             ({"back_up_threat": 1.5}, "back_up_threat"),
-                                            ({"dodge": "yes"}, "dodge")])
+                                            ({"dodge": "yes"}, "dodge"),
+                                            ({"dodge_within": 0.0}, "dodge_within")])
 def test_bad_back_up_settings_are_refused_by_name(changes, field):
     with pytest.raises(InputError, match=field):
         StallConfig(**changes)
