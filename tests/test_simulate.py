@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from dsmpepc_nlp.core.config import DockingConfig, PlannerConfig, RobotConfig, RobotState
+from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import OccupancyGrid
 from dsmpepc_nlp.sim.episode import Episode
@@ -144,6 +145,30 @@ def test_docking_at_a_followed_goal_keeps_the_follower_closer_and_the_paper_neve
     # the last 4 s: 1.4 m behind with docking, 3.5-3.7 m without (a timeout; measured). The
     # sampler's coarse set happens to miss the slow optimum and follows either way.
     assert np.mean(behind["on"][-20:]) < np.mean(behind["off"][-20:]) - 0.5
+
+
+def test_a_robot_facing_away_from_a_near_goal_turns_in_place_instead_of_crawling_round():
+    """The goal 0.95 m behind the robot: the law alone crawls round it (0.04 m/s while it turns,
+    arriving after 9.6 s, measured); with ``docking.turn_in_place`` the first command turns
+    the robot where it stands and it arrives in 3.4 s. The paper preset never turns in place."""
+    agents = (Agent("a", RobotState(0.0, 0.0, 0.0), FixedGoal((-0.95, 0.0))),)
+    scenario = Scenario("behind", agents, duration=15.0)
+    base = PlannerConfig()
+    runs = {}
+    for turn in (0.0, math.pi / 4):
+        config = dataclasses.replace(base, docking=dataclasses.replace(base.docking,
+                                                                        turn_in_place=turn))
+        runs[turn] = simulate(scenario, config, SolverConfig.sampling(n_samples=256),
+                              np.random.default_rng(0))
+    crawl, turn = runs[0.0], runs[math.pi / 4]
+    assert crawl.outcomes == turn.outcomes == ["success"]
+    assert turn.states[0, 1, 3] == 0.0 and abs(turn.states[0, 1, 4]) > 0.5    # in place
+    assert crawl.states[0, 1, 3] > 0.0
+    assert turn.outcome_times[0] < 5.0 < 8.0 < crawl.outcome_times[0]
+    assert PlannerConfig.paper().docking.turn_in_place == 0.0
+    for bad in (-0.1, 4.0):
+        with pytest.raises(InputError, match="turn_in_place"):
+            DockingConfig(turn_in_place=bad)
 
 
 def test_two_robots_swap_without_touching_and_see_each_other():

@@ -4,6 +4,7 @@ holds them as ``docking`` and ``stall``, and :mod:`.config` re-exports both)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from .validation import check_booleans, check_integers, validate_fields
@@ -38,9 +39,19 @@ class DockingConfig:
     3-3.5 m behind its goal and lost its person in the crowd. Docking heads for the goal at the
     speed limit, slowed only by the law's ramp (docs/method.md section 7.1)."""
 
+    turn_in_place: float = 0.0
+    """Our extension, rad (0: off): a robot whose heading is more than this off the line to the
+    goal it docks at first turns in place toward it (a differential drive can; the law turns
+    only along its curve and slows with the curvature, so near a goal behind it the robot
+    crawled round in a wide arc until the deadlock rule ended the run: ETH/UCY's 'wandering'
+    class). Docking's survivability test judges the turn and the approach together. pi/4 is
+    the angle at which Nav2's rotation shim controller turns a robot in place before its path
+    follower takes over (docs/method.md section 7.1)."""
+
     def __post_init__(self):
         validate_fields(self, {"radius": dict(low=0.0), "min_survival": dict(low=0.0, high=1.0),
-                                "arrival_radius": dict(low=0.0)})
+                                "arrival_radius": dict(low=0.0),
+                                "turn_in_place": dict(low=0.0, high=math.pi)})
         check_booleans(self, ("radius_from_reach", "follow"))
 
 

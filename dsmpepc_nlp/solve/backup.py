@@ -52,7 +52,7 @@ def back_up_trajectories(state, config: PlannerConfig) -> Trajectory:
     commands = np.zeros((3, n, 2))
     for i, sign in enumerate((0.0, 1.0, -1.0)):
         commands[i, reversing] = (-speed, sign * turn)
-    return _commanded(state, config, commands)
+    return commanded(state, config, commands)
 
 
 DODGE_TURN_STEPS = 8
@@ -76,10 +76,10 @@ def dodge_trajectories(state, config: PlannerConfig) -> Trajectory:
                     c = np.tile((v_ahead, 0.0), (n, 1))
                     c[:turning] = (v_turn, sign * robot.omega_limit)
                     commands.append(c)
-    return _commanded(state, config, np.array(commands))
+    return commanded(state, config, np.array(commands))
 
 
-def _commanded(state, config: PlannerConfig, commands) -> Trajectory:
+def commanded(state, config: PlannerConfig, commands) -> Trajectory:
     """The trajectories of command sequences ``commands`` (m, n, 2) of ``(v, omega)``, each
     step rate-limited from the last along the exact arc, from ``clamp_measured(state)``."""
     robot, dt = config.robot, config.horizon.dt

@@ -7,8 +7,10 @@ import math
 
 import numpy as np
 
-from ..core.config import PlannerConfig
-from ..core.control_law import z_from_target
+from ..core.config import PlannerConfig, RobotState
+from ..core.control_law import Trajectory, rollout, wrap, z_from_target
+from ..core.exact_cost import evaluate
+from .backup import commanded
 from .evaluator import Evaluation, Evaluator
 from .starts import clip_to_bounds
 
@@ -24,15 +26,56 @@ def dock(evaluator: Evaluator, config: PlannerConfig) -> tuple | None:
     if distance > radius or distance == 0.0:
         return None
     heading = math.atan2(goal[1] - state.y, goal[0] - state.x)
-    z = z_from_target((goal[0], goal[1], heading), config.robot.v_limit, state.pose)
-    evaluated = evaluator.evaluate(clip_to_bounds(np.array(z, dtype=float), config))
+    off = abs(float(wrap(heading - state.phi)))
+    if 0.0 < docking.turn_in_place < off:
+        evaluated = turn_then_dock(evaluator, goal)
+        how = (f"turning in place first ({off:.2f} rad off the line to it, more than "
+               f"{docking.turn_in_place:g}), then heading straight to it")
+    else:
+        z = z_from_target((goal[0], goal[1], heading), config.robot.v_limit, state.pose)
+        evaluated = evaluator.evaluate(clip_to_bounds(np.array(z, dtype=float), config))
+        how = "heading straight to it"
     step, survival = arrival_survival(evaluated, goal, docking.arrival_radius)
     if not survival > docking.min_survival:
         return None
     until = "the horizon's end" if step is None else f"arrival (step {step})"
     return evaluated, (f"docked: the goal is {distance:.2f} m away, within the docking radius "
-                       f"{radius:g} m; heading straight to it (survivability until "
-                       f"{until} {survival:.2f} > {docking.min_survival:g})")
+                       f"{radius:g} m; {how} (survivability until {until} {survival:.2f} > "
+                       f"{docking.min_survival:g})")
+
+
+def turn_then_dock(evaluator: Evaluator, goal) -> Evaluation:
+    """The docking trajectory of a robot facing away from its goal (``docking.turn_in_place``):
+    turn in place toward the goal at the full turn rate (within the acceleration limits from
+    the measured command) until the line to the goal is within ``turn_in_place`` of the
+    heading, then the law's docking trajectory from there, over one horizon; costed by the
+    exact cost of the evaluator's cycle (the numpy reference, as the back-up rung's). Its
+    ``z`` is the law's part, seen from where the turn ends.
+
+    The law turns only along its curve, ``omega = kappa v``, and slows with the curvature, so
+    close to a goal behind it the robot crawls round in a wide arc (0.04 m/s at 0.95 m from the
+    goal in a replayed crowd, until the deadlock rule ended the run); a differential drive can
+    turn where it stands."""
+    cycle = evaluator.cycle
+    config, state = cycle.config, cycle.state
+    n, limit = config.horizon.n_steps, config.docking.turn_in_place
+    sign = 1.0 if wrap(math.atan2(goal[1] - state.y, goal[0] - state.x) - state.phi) > 0 else -1.0
+    turning = commanded(state, config, np.tile((0.0, sign * config.robot.omega_limit),
+                                               (1, n, 1)))[0]
+    x, y, phi = turning.poses.T
+    off = np.abs(wrap(np.arctan2(goal[1] - y, goal[0] - x) - phi))
+    k = next((i for i in range(1, n) if off[i] <= limit), n - 1)
+    pose = turning.poses[k]
+    heading = math.atan2(goal[1] - pose[1], goal[0] - pose[0])
+    z = clip_to_bounds(np.array(z_from_target((goal[0], goal[1], heading),
+                                              config.robot.v_limit, pose), dtype=float), config)
+    law = rollout(z, RobotState(*pose, turning.v[k - 1], turning.omega[k - 1]), config)
+    trajectory = Trajectory(z[None], np.concatenate([turning.poses[:k + 1],
+                                                     law.poses[1:n - k + 1]])[None],
+                            np.concatenate([turning.v[:k], law.v[:n - k]])[None],
+                            np.concatenate([turning.omega[:k], law.omega[:n - k]])[None],
+                            law.target[None])
+    return Evaluation(z[None], trajectory, evaluate(trajectory, cycle.world, cycle.goal, config))
 
 
 def docking_radius(config: PlannerConfig) -> float:
