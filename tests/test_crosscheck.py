@@ -45,6 +45,8 @@ def test_the_share_where_the_nlp_plans_leaves_out_the_docked_cycles():
     assert docked.share_within_tol == 0.5                 # every cycle: the headline
     assert docked.share_within_tol_undocked == pytest.approx(2 / 3)
     assert docked.to_dict()["docked_cycles"] == 1
+    assert "within 0.01: 50.0% (the planner docks in 1" in docked.describe()
+    assert "in the other 3: 66.7%" in docked.describe()
     assert math.isnan(CrosscheckResult(zeros, zeros, gap).share_within_tol_undocked)
 
 

@@ -34,7 +34,7 @@ from . import barn, claims, crowdnav, crowds, sweep
 from .crosscheck import crosscheck
 from .params import PRESETS, overrides, parse_ipopt_options, parse_params, preset_config
 from .results import parse_indices
-from .summary import fmt, summarised
+from .summary import summarised
 from .timing import run_bench
 
 PLANNER_VARIANTS = tuple(VARIANTS)
@@ -81,10 +81,8 @@ def run_crosscheck(args) -> int:
     say(f"[crosscheck] {len(cycles)} cycles, {args.solver} vs sampling "
         f"({args.n_samples} samples)")
     started = time.perf_counter()
-    # The simulator docks at a fixed goal, and at a followed one with docking.follow.
-    dock = scenario.agents[0].goal.kind == "fixed" or robot_config.docking.follow
-    result = crosscheck(cycles, robot_config, solver, n_samples=args.n_samples, tol=args.tol,
-                        dock=dock)
+    dock = scenario.agents[0].goal.kind == "fixed" or robot_config.docking.follow  # as simulate
+    result = crosscheck(cycles, robot_config, solver, args.n_samples, args.tol, dock)
     stem = f"{scenario.name}-{args.variant}-crosscheck-{args.solver}-seed{args.seed}"
     figure = figures().crosscheck_figure(result.gap, path=Path(args.out) / f"{stem}.png")
     summary = dict(result.to_dict(), scenario=scenario.name, variant=args.variant,
@@ -94,13 +92,7 @@ def run_crosscheck(args) -> int:
     if args.json:
         print(json.dumps(json_clean(summary), allow_nan=False))
         return 0
-    undocked = summary["cycles"] - summary["docked_cycles"]
-    print(f"{summary['cycles']} cycles: gap (NLP - sampling) median "
-          f"{fmt(summary['gap_median'])}, p95 {fmt(summary['gap_p95'])}, within {args.tol}: "
-          f"{100 * summary['share_within_tol']:.1f}% (the planner docks in "
-          f"{summary['docked_cycles']}, where the NLP is not asked; in the other {undocked}: "
-          f"{fmt(100 * summary['share_within_tol_undocked'])}%); NLP plan statuses "
-          f"{summary['statuses']}")
+    print(f"{result.describe()}; NLP plan statuses {summary['statuses']}")
     print(f"figure: {figure}")
     return 0
 

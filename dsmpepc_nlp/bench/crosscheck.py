@@ -56,6 +56,15 @@ class CrosscheckResult:
             return math.nan
         return _share(self.gap[~self.docked], self.tol)
 
+    def describe(self) -> str:
+        """One line: the gap's median and p95, and the shares within ``tol``."""
+        d = self.to_dict()
+        return (f"{d['cycles']} cycles: gap (NLP - sampling) median {d['gap_median']:.4g}, p95 "
+                f"{d['gap_p95']:.4g}, within {self.tol:g}: {100 * d['share_within_tol']:.1f}% "
+                f"(the planner docks in {d['docked_cycles']}, where the NLP is not asked; in "
+                f"the other {d['cycles'] - d['docked_cycles']}: "
+                f"{100 * d['share_within_tol_undocked']:.1f}%)")
+
     def to_dict(self) -> dict:
         """Summary: ``cycles``, ``gap_median``, ``gap_p95``, ``share_within_tol``, ``tol``,
         ``docked_cycles`` and ``share_within_tol_undocked``."""
