@@ -150,9 +150,8 @@ def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
     if level >= config.stall.back_up_level and backing:
         why = "stalled and the plan stood"
     else:
-        within = math.inf if backing else config.stall.dodge_within
-        soon = "" if backing or _survival(plan, config, within) == _survival(plan, config) \
-            else f" within {within:g} s"
+        within = math.inf if backing else config.stall.dodge_within    # what its test read
+        soon = f" within {within:g} s" if within < config.horizon.duration else ""
         why = (f"the plan {'stood' if stands(plan, config) else 'went'} where it expects to be "
                f"struck{soon} (survival {_survival(plan, config, within):.2f} < "
                f"{config.stall.back_up_threat:g})")

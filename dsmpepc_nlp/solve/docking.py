@@ -25,15 +25,13 @@ def dock(evaluator: Evaluator, config: PlannerConfig) -> tuple | None:
     radius = docking_radius(config)
     if distance > radius or distance == 0.0:
         return None
-    heading = math.atan2(goal[1] - state.y, goal[0] - state.x)
-    off = abs(float(wrap(heading - state.phi)))
+    off = abs(float(off_the_line(state.pose, goal)))
     if 0.0 < docking.turn_in_place < off:
         evaluated = turn_then_dock(evaluator, goal)
         how = (f"turning in place first ({off:.2f} rad off the line to it, more than "
                f"{docking.turn_in_place:g}), then heading straight to it")
     else:
-        z = z_from_target((goal[0], goal[1], heading), config.robot.v_limit, state.pose)
-        evaluated = evaluator.evaluate(clip_to_bounds(np.array(z, dtype=float), config))
+        evaluated = evaluator.evaluate(docking_z(state.pose, goal, config))
         how = "heading straight to it"
     step, survival = arrival_survival(evaluated, goal, docking.arrival_radius)
     if not survival > docking.min_survival:
@@ -59,16 +57,13 @@ def turn_then_dock(evaluator: Evaluator, goal) -> Evaluation:
     cycle = evaluator.cycle
     config, state = cycle.config, cycle.state
     n, limit = config.horizon.n_steps, config.docking.turn_in_place
-    sign = 1.0 if wrap(math.atan2(goal[1] - state.y, goal[0] - state.x) - state.phi) > 0 else -1.0
+    sign = 1.0 if off_the_line(state.pose, goal) > 0 else -1.0
     turning = commanded(state, config, np.tile((0.0, sign * config.robot.omega_limit),
                                                (1, n, 1)))[0]
-    x, y, phi = turning.poses.T
-    off = np.abs(wrap(np.arctan2(goal[1] - y, goal[0] - x) - phi))
+    off = np.abs(off_the_line(turning.poses.T, goal))
     k = next((i for i in range(1, n) if off[i] <= limit), n - 1)
     pose = turning.poses[k]
-    heading = math.atan2(goal[1] - pose[1], goal[0] - pose[0])
-    z = clip_to_bounds(np.array(z_from_target((goal[0], goal[1], heading),
-                                              config.robot.v_limit, pose), dtype=float), config)
+    z = docking_z(pose, goal, config)
     law = rollout(z, RobotState(*pose, turning.v[k - 1], turning.omega[k - 1]), config)
     trajectory = Trajectory(z[None], np.concatenate([turning.poses[:k + 1],
                                                      law.poses[1:n - k + 1]])[None],
@@ -76,6 +71,21 @@ def turn_then_dock(evaluator: Evaluator, goal) -> Evaluation:
                             np.concatenate([turning.omega[:k], law.omega[:n - k]])[None],
                             law.target[None])
     return Evaluation(z[None], trajectory, evaluate(trajectory, cycle.world, cycle.goal, config))
+
+
+def off_the_line(pose, goal):
+    """How far the line from ``pose`` to ``goal`` turns from the heading, rad in (-pi, pi]
+    (positive: the goal is to the left); ``pose`` an ``(x, y, phi)`` of scalars or arrays."""
+    x, y, phi = pose
+    return wrap(np.arctan2(goal[1] - y, goal[0] - x) - phi)
+
+
+def docking_z(pose, goal, config: PlannerConfig) -> np.ndarray:
+    """The docking trajectory's z from ``pose``: the target pose on the goal, facing along
+    the line of sight, at the speed limit; inside the box."""
+    heading = math.atan2(goal[1] - pose[1], goal[0] - pose[0])
+    z = z_from_target((goal[0], goal[1], heading), config.robot.v_limit, pose)
+    return clip_to_bounds(np.array(z, dtype=float), config)
 
 
 def docking_radius(config: PlannerConfig) -> float:
