@@ -214,7 +214,8 @@ class PlannerConfig:
                                               ttg_along_nf=False, sigma_dynamic_growth=0.0))
         changes.setdefault("docking", DockingConfig(arrival_radius=0.0, radius_from_reach=False,
                                                     follow=False, turn_in_place=0.0))
-        changes.setdefault("stall", StallConfig(levels=0, back_up=0.0, dodge=False))
+        changes.setdefault("stall", StallConfig(levels=0, back_up=0.0, dodge=False,
+                                                  turn_to_goal=0.0))
         changes.setdefault("control_law", ControlLawConfig(r_thresh_from_robot=False))
         return cls(anticipatory_pc=switches[0], terminal_cost=switches[1], cost=cost, **changes)
 

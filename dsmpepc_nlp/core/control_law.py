@@ -194,6 +194,27 @@ def rollout(z, state: RobotState, config: PlannerConfig, smoothing=EXACT) -> Tra
     return result[0] if z.ndim == 1 else result
 
 
+def commanded(state, config: PlannerConfig, commands) -> Trajectory:
+    """The trajectories of command sequences ``commands`` (m, n, 2) of ``(v, omega)``, each
+    step rate-limited from the last along the exact arc, from ``clamp_measured(state)``."""
+    robot, dt = config.robot, config.horizon.dt
+    m, n = commands.shape[:2]
+    poses = np.empty((m, n + 1, 3))
+    v, omega = np.empty((m, n)), np.empty((m, n))
+    start = clamp_measured(state, config)     # where the law's rollouts start too
+    v_prev = np.full(m, float(start[0]))
+    omega_prev = np.full(m, float(start[1]))
+    poses[:, 0] = np.asarray(state.pose, dtype=float)
+    for k in range(n):
+        v_prev = np.asarray(rate_limit(commands[:, k, 0], v_prev, robot.accel_limit, dt, 0.0))
+        omega_prev = np.asarray(rate_limit(commands[:, k, 1], omega_prev, robot.alpha_limit, dt,
+                                           0.0))
+        poses[:, k + 1] = np.stack(arc_step(poses[:, k].T, v_prev, omega_prev, dt), axis=-1)
+        v[:, k], omega[:, k] = v_prev, omega_prev
+    stop = np.array([config.bounds.r_min, 0.0, 0.0, 0.0])
+    return Trajectory(np.tile(stop, (m, 1)), poses, v, omega, poses[:, -1].copy())
+
+
 def symbolic_rollout(z, state, config: PlannerConfig, smoothing=None):
     """Rollout on CasADi symbols (SX or MX): ``z`` (4x1), ``state`` (5x1: x, y, phi, v, omega).
 

@@ -128,6 +128,18 @@ class StallConfig:
     follower, MPEPC, arrives with 1 s and times out with 5 s). Not the default: on the tuning
     episodes 1 s won 3 cases and lost 7 against 5 s, collisions 37 -> 43 (docs/results.md)."""
 
+    turn_to_goal: float = math.pi / 4
+    """rad (0: off): once stalled (from ``back_up_level`` of the ladder on), a robot whose
+    heading is more than this off the line to its goal also meets, with the rung on, the
+    trajectory that turns in place toward the goal until it is within this angle and then
+    heads for it (``docking.turn_then_head``, the turn docking makes with
+    ``docking.turn_in_place``); the exact cost takes it if it is cheaper than the plan. The
+    law turns only along its curve and slows with the curvature, so a robot that a dodge or a
+    crowd left facing away from its goal crawls round at a few cm/s: the built-in hall's
+    follower (MPEPC) took 9 s to turn round at 0.03 m/s and timed out. Nav2's recoveries spin
+    a stuck robot in place; pi/4 is docking's angle, Nav2's rotation shim's (ours;
+    docs/method.md section 7.5)."""
+
     def __post_init__(self):
         check_booleans(self, ("dodge",))
         validate_fields(self, {"window": dict(low=0.0, low_open=True),
@@ -135,7 +147,8 @@ class StallConfig:
                                 "gain": dict(low=1.0), "back_up": dict(low=0.0),
                                 "back_up_time": dict(low=0.0, low_open=True),
                                 "back_up_threat": dict(low=0.0, high=1.0),
-                                "dodge_within": dict(low=0.0, low_open=True)})
+                                "dodge_within": dict(low=0.0, low_open=True),
+                                "turn_to_goal": dict(low=0.0, high=math.pi)})
         check_integers(self, {"levels": 0, "back_up_level": 0})
 
     def progress_gain(self, level: int) -> float:

@@ -21,8 +21,9 @@ import math
 import numpy as np
 
 from ..core.config import PlannerConfig
-from ..core.control_law import Trajectory, arc_step, clamp_measured, rate_limit
+from ..core.control_law import Trajectory, commanded
 from ..core.exact_cost import evaluate
+from . import docking
 from .records import Plan
 
 TURN_RADIUS = 1.0
@@ -79,25 +80,20 @@ def dodge_trajectories(state, config: PlannerConfig) -> Trajectory:
     return commanded(state, config, np.array(commands))
 
 
-def commanded(state, config: PlannerConfig, commands) -> Trajectory:
-    """The trajectories of command sequences ``commands`` (m, n, 2) of ``(v, omega)``, each
-    step rate-limited from the last along the exact arc, from ``clamp_measured(state)``."""
-    robot, dt = config.robot, config.horizon.dt
-    m, n = commands.shape[:2]
-    poses = np.empty((m, n + 1, 3))
-    v, omega = np.empty((m, n)), np.empty((m, n))
-    start = clamp_measured(state, config)     # where the law's rollouts start too
-    v_prev = np.full(m, float(start[0]))
-    omega_prev = np.full(m, float(start[1]))
-    poses[:, 0] = np.asarray(state.pose, dtype=float)
-    for k in range(n):
-        v_prev = np.asarray(rate_limit(commands[:, k, 0], v_prev, robot.accel_limit, dt, 0.0))
-        omega_prev = np.asarray(rate_limit(commands[:, k, 1], omega_prev, robot.alpha_limit, dt,
-                                           0.0))
-        poses[:, k + 1] = np.stack(arc_step(poses[:, k].T, v_prev, omega_prev, dt), axis=-1)
-        v[:, k], omega[:, k] = v_prev, omega_prev
-    stop = np.array([config.bounds.r_min, 0.0, 0.0, 0.0])
-    return Trajectory(np.tile(stop, (m, 1)), poses, v, omega, poses[:, -1].copy())
+def turn_trajectories(plan: Plan, state, goal, config: PlannerConfig) -> Trajectory:
+    """The turns in place of a stalled robot facing away from its goal (``stall.turn_to_goal``):
+    toward the goal, then the docking trajectory to it; and toward the plan's own target, then
+    the law to it at the plan's ``v_max`` (the way the plan meant, without the crawl round:
+    the law slows with its curvature). Each turns until within ``turn_to_goal`` of the line
+    (:func:`.docking.turn_then_head`)."""
+    limit = config.stall.turn_to_goal
+    target = np.asarray(plan.trajectory.target, dtype=float)
+    ways = [docking.turn_then_head(state, goal, config, limit)]
+    if np.all(np.isfinite(target)):
+        ways.append(docking.turn_then_head(state, target[:2], config, limit, target,
+                                           float(plan.x[3])))
+    return Trajectory(*(np.concatenate([getattr(t, f.name) for t in ways])
+                        for f in dataclasses.fields(Trajectory)))
 
 
 def stands(plan: Plan, config: PlannerConfig) -> bool:
@@ -127,18 +123,25 @@ def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
     """The rung's plan, or None (keep ``plan``). With the rung on: reverse trajectories when
     the plan stands and the ladder is at ``back_up_level`` or above or the plan is
     :func:`threatened`; forward dodges (``stall.dodge``) when it is threatened, standing or
-    not. The cheapest of them by the exact cost replaces the plan if it is cheaper."""
+    not; the turn in place toward the goal (``stall.turn_to_goal``) when the ladder is at
+    ``back_up_level`` or above and the robot faces more than that away from its goal. The
+    cheapest of them by the exact cost replaces the plan if it is cheaper."""
     config = cycle.config
-    if config.stall.back_up <= 0.0:
+    stall = config.stall
+    if stall.back_up <= 0.0:
         return None
     threat = threatened(plan, config)
-    reverse = stands(plan, config) and (level >= config.stall.back_up_level or threat)
-    dodge = config.stall.dodge and threatened(plan, config, config.stall.dodge_within)
-    sets = ([back_up_trajectories(state, config)] if reverse else []) + (
-        [dodge_trajectories(state, config)] if dodge else [])
+    stalled = level >= stall.back_up_level
+    reverse = stands(plan, config) and (stalled or threat)
+    dodge = stall.dodge and threatened(plan, config, stall.dodge_within)
+    off = abs(float(docking.off_the_line(state.pose, cycle.goal)))
+    turn = stalled and 0.0 < stall.turn_to_goal < off
+    sets = ([("reverse", back_up_trajectories(state, config))] if reverse else []) + (
+        [("dodge", dodge_trajectories(state, config))] if dodge else []) + (
+        [("turn", turn_trajectories(plan, state, cycle.goal, config))] if turn else [])
     if not sets:
         return None
-    candidates = Trajectory(*(np.concatenate([getattr(t, f.name) for t in sets])
+    candidates = Trajectory(*(np.concatenate([getattr(t, f.name) for _, t in sets])
                               for f in dataclasses.fields(Trajectory)))
     costs = evaluate(candidates, cycle.world, cycle.goal, config)
     total = np.where(np.isfinite(costs.total), costs.total, np.inf)
@@ -146,25 +149,33 @@ def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
     if not total[best] < plan.fun:
         return None
     chosen = candidates[best]
-    backing = reverse and best < 3
-    if level >= config.stall.back_up_level and backing:
+    ends = np.cumsum([len(t.z) for _, t in sets])
+    which = int(np.searchsorted(ends, best, side="right"))      # the set it came from
+    kind, first = sets[which][0], best - (int(ends[which - 1]) if which else 0)
+    if kind == "turn":
+        why = (f"stalled, facing {off:.2f} rad away from the goal (more than "
+               f"{stall.turn_to_goal:.2f})")
+        what = ("turning in place toward the goal, then heading to it", "turning in place "
+                "toward the plan's target, then heading to it")[first]
+    elif kind == "reverse" and stalled:
         why = "stalled and the plan stood"
     else:
-        within = math.inf if backing else config.stall.dodge_within    # what its test read
+        within = math.inf if kind == "reverse" else stall.dodge_within    # what its test read
         soon = f" within {within:g} s" if within < config.horizon.duration else ""
         why = (f"the plan {'stood' if stands(plan, config) else 'went'} where it expects to be "
                f"struck{soon} (survival {_survival(plan, config, within):.2f} < "
-               f"{config.stall.back_up_threat:g})")
-    if backing:
-        what = (f"backing up {('straight', 'curving left', 'curving right')[best]} at "
-                f"{config.stall.back_up:g} m/s")
-    else:
+               f"{stall.back_up_threat:g})")
+    if kind == "reverse":
+        what = (f"backing up {('straight', 'curving left', 'curving right')[first]} at "
+                f"{stall.back_up:g} m/s")
+    elif kind == "dodge":
         what = (f"dodging: turning {'left' if chosen.omega[0] > 0 else 'right'} at "
                 f"{abs(float(chosen.omega[0])):.2f} rad/s, then ahead")
     message = (f"{why} (exact cost {plan.fun:.3f}): {what} (exact cost {total[best]:.3f}); "
                f"it replaced: {plan.message}")
     v0, omega0 = float(chosen.v[0]), float(chosen.omega[0])
     control = (v0, omega0) if math.isfinite(v0) and math.isfinite(omega0) else (0.0, 0.0)
+    status = {"reverse": "backing-up", "dodge": "dodging", "turn": "turning"}[kind]
     return dataclasses.replace(plan, x=chosen.z, fun=float(total[best]), success=True,
                                message=message, trajectory=chosen, control=control,
-                               cost=costs[best], status="backing-up" if backing else "dodging")
+                               cost=costs[best], status=status)

@@ -8,9 +8,8 @@ import math
 import numpy as np
 
 from ..core.config import PlannerConfig, RobotState
-from ..core.control_law import Trajectory, rollout, wrap, z_from_target
+from ..core.control_law import Trajectory, commanded, rollout, wrap, z_from_target
 from ..core.exact_cost import evaluate
-from .backup import commanded
 from .evaluator import Evaluation, Evaluator
 from .starts import clip_to_bounds
 
@@ -44,33 +43,46 @@ def dock(evaluator: Evaluator, config: PlannerConfig) -> tuple | None:
 
 def turn_then_dock(evaluator: Evaluator, goal) -> Evaluation:
     """The docking trajectory of a robot facing away from its goal (``docking.turn_in_place``):
-    turn in place toward the goal at the full turn rate (within the acceleration limits from
-    the measured command) until the line to the goal is within ``turn_in_place`` of the
-    heading, then the law's docking trajectory from there, over one horizon; costed by the
-    exact cost of the evaluator's cycle (the numpy reference, as the back-up rung's). Its
-    ``z`` is the law's part, seen from where the turn ends.
+    :func:`turn_then_head` with that angle, costed by the exact cost of the evaluator's cycle
+    (the numpy reference, as the back-up rung's). Its ``z`` is the law's part, seen from where
+    the turn ends.
 
     The law turns only along its curve, ``omega = kappa v``, and slows with the curvature, so
     close to a goal behind it the robot crawls round in a wide arc (0.04 m/s at 0.95 m from the
     goal in a replayed crowd, until the deadlock rule ended the run); a differential drive can
     turn where it stands."""
     cycle = evaluator.cycle
-    config, state = cycle.config, cycle.state
-    n, limit = config.horizon.n_steps, config.docking.turn_in_place
+    trajectory = turn_then_head(cycle.state, goal, cycle.config,
+                                cycle.config.docking.turn_in_place)
+    return Evaluation(trajectory.z, trajectory,
+                      evaluate(trajectory, cycle.world, cycle.goal, cycle.config))
+
+
+def turn_then_head(state: RobotState, goal, config: PlannerConfig, limit: float,
+                   target=None, v_max: float | None = None) -> Trajectory:
+    """Turn in place toward ``goal`` at the full turn rate (within the acceleration limits from
+    the measured command) until the line to it is within ``limit`` rad of the heading, then the
+    law from there over the rest of the horizon, a batch of one: toward the target pose
+    ``target`` at ``v_max`` when given, else the docking trajectory's (:func:`docking_z`: the
+    goal, facing along the line of sight, at the speed limit). Its ``z`` is the law's part,
+    seen from where the turn ends, and its target the law's (the next plan's warm start)."""
+    n = config.horizon.n_steps
     sign = 1.0 if off_the_line(state.pose, goal) > 0 else -1.0
     turning = commanded(state, config, np.tile((0.0, sign * config.robot.omega_limit),
                                                (1, n, 1)))[0]
     off = np.abs(off_the_line(turning.poses.T, goal))
     k = next((i for i in range(1, n) if off[i] <= limit), n - 1)
     pose = turning.poses[k]
-    z = docking_z(pose, goal, config)
+    if target is None:
+        z = docking_z(pose, goal, config)
+    else:
+        z = clip_to_bounds(np.array(z_from_target(target, v_max, pose), dtype=float), config)
     law = rollout(z, RobotState(*pose, turning.v[k - 1], turning.omega[k - 1]), config)
-    trajectory = Trajectory(z[None], np.concatenate([turning.poses[:k + 1],
-                                                     law.poses[1:n - k + 1]])[None],
-                            np.concatenate([turning.v[:k], law.v[:n - k]])[None],
-                            np.concatenate([turning.omega[:k], law.omega[:n - k]])[None],
-                            law.target[None])
-    return Evaluation(z[None], trajectory, evaluate(trajectory, cycle.world, cycle.goal, config))
+    return Trajectory(z[None], np.concatenate([turning.poses[:k + 1],
+                                               law.poses[1:n - k + 1]])[None],
+                      np.concatenate([turning.v[:k], law.v[:n - k]])[None],
+                      np.concatenate([turning.omega[:k], law.omega[:n - k]])[None],
+                      law.target[None])
 
 
 def off_the_line(pose, goal):
