@@ -235,19 +235,24 @@ def test_the_turns_stay_within_the_limits_and_end_near_the_line_to_their_target(
     plan = Planner(config, SolverConfig.sampling(n_samples=64)).plan(state, World(), (-4.0, 1.0))
     t = backup.turn_trajectories(plan, state, (-4.0, 1.0), config)
     robot, dt = config.robot, config.horizon.dt
-    assert t.poses.shape == (2, config.horizon.n_steps + 1, 3)
+    assert t.poses.shape == (2 + 2 * (backup.DODGE_TURN_STEPS - 1), config.horizon.n_steps + 1, 3)
     assert np.min(t.v) >= 0.0 and np.max(t.v) <= robot.v_limit + 1e-12
     assert np.max(np.abs(t.omega)) <= robot.omega_limit + 1e-12
-    v = np.concatenate([np.full((2, 1), 0.3), t.v], axis=1)
-    omega = np.concatenate([np.full((2, 1), 0.4), t.omega], axis=1)
+    v = np.concatenate([np.full((len(t.v), 1), 0.3), t.v], axis=1)
+    omega = np.concatenate([np.full((len(t.v), 1), 0.4), t.omega], axis=1)
     assert np.max(np.abs(np.diff(v, axis=1))) <= robot.accel_limit * dt + 1e-9
     assert np.max(np.abs(np.diff(omega, axis=1))) <= robot.alpha_limit * dt + 1e-9
-    assert np.all(t.v[:, 3] == 0.0)                         # braked to turn where it stands
+    assert np.all(t.v[:2, 3] == 0.0)                        # braked to turn where it stands
     turned = np.argmax(t.v > 0.0, axis=1)                   # where each sets off
     for i, aim in enumerate(((-4.0, 1.0), plan.trajectory.target[:2])):
         x, y, phi = t.poses[i, turned[i]]
         away = abs(math.remainder(math.atan2(aim[1] - y, aim[0] - x) - phi, 2 * math.pi))
         assert away <= config.stall.turn_to_goal + 0.3     # within a step's turn of the limit
+    steps = backup.DODGE_TURN_STEPS - 1                      # then 1..7 periods either way
+    for first, sign in ((2, 1.0), (2 + steps, -1.0)):
+        ends = [t.poses[first + k - 1, k, 2] for k in range(1, steps + 1)]
+        assert np.all(sign * np.diff(np.unwrap(ends)) > 0)     # each turns further in place
+        assert np.all(t.v[first:first + steps, 0] <= 0.3)       # braking, not driving off
 
 
 @pytest.mark.parametrize("changes, field", [({"back_up": -0.1}, "back_up"),

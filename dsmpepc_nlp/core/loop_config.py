@@ -129,16 +129,20 @@ class StallConfig:
     episodes 1 s won 3 cases and lost 7 against 5 s, collisions 37 -> 43 (docs/results.md)."""
 
     turn_to_goal: float = math.pi / 4
-    """rad (0: off): once stalled (from ``back_up_level`` of the ladder on), a robot whose
-    heading is more than this off the line to its goal also meets, with the rung on, the
-    trajectory that turns in place toward the goal until it is within this angle and then
-    heads for it (``docking.turn_then_head``, the turn docking makes with
-    ``docking.turn_in_place``); the exact cost takes it if it is cheaper than the plan. The
-    law turns only along its curve and slows with the curvature, so a robot that a dodge or a
-    crowd left facing away from its goal crawls round at a few cm/s: the built-in hall's
-    follower (MPEPC) took 9 s to turn round at 0.03 m/s and timed out. Nav2's recoveries spin
-    a stuck robot in place; pi/4 is docking's angle, Nav2's rotation shim's (ours;
-    docs/method.md section 7.5)."""
+    """rad (0: off): once stalled (from ``turn_level`` of the ladder on), the rung also sets
+    turns in place against the plan, each then the law (``backup.turn_trajectories``, 16):
+    toward the goal until the line to it is within this angle of the heading, then the docking
+    trajectory to it; toward the plan's own target as far, then the law to it; and 1 to 7 plan
+    periods either way, then the docking trajectory to the goal; the exact cost takes the
+    cheapest if it is cheaper than the plan. The law turns only along its curve and slows with
+    the curvature, so a robot whose way is round a person standing just ahead, or that faces
+    away from its goal, crawls or stands: CrowdNav's 'stalled-beside-person' runs stood 10 s
+    with the person 0.4 m away, and the built-in hall's follower (MPEPC) took 6 s to turn
+    round at 0.03 m/s. Nav2's recoveries spin a stuck robot in place; pi/4 is docking's angle,
+    Nav2's rotation shim's (ours; docs/method.md section 7.5)."""
+    turn_level: int = 1
+    """The ladder's level from which ``turn_to_goal`` acts: 1, once stalled for a window; 0,
+    on every plan."""
 
     def __post_init__(self):
         check_booleans(self, ("dodge",))
@@ -149,7 +153,7 @@ class StallConfig:
                                 "back_up_threat": dict(low=0.0, high=1.0),
                                 "dodge_within": dict(low=0.0, low_open=True),
                                 "turn_to_goal": dict(low=0.0, high=math.pi)})
-        check_integers(self, {"levels": 0, "back_up_level": 0})
+        check_integers(self, {"levels": 0, "back_up_level": 0, "turn_level": 0})
 
     def progress_gain(self, level: int) -> float:
         """The progress weight's factor at ``level`` (1 at level 0)."""

@@ -82,16 +82,20 @@ def dodge_trajectories(state, config: PlannerConfig) -> Trajectory:
 
 def turn_trajectories(plan: Plan, state, goal, config: PlannerConfig) -> Trajectory:
     """The turns in place of a stalled robot facing away from its goal (``stall.turn_to_goal``):
-    toward the goal, then the docking trajectory to it; and toward the plan's own target, then
-    the law to it at the plan's ``v_max`` (the way the plan meant, without the crawl round:
-    the law slows with its curvature). Each turns until within ``turn_to_goal`` of the line
-    (:func:`.docking.turn_then_head`)."""
+    toward the goal until within ``turn_to_goal`` of the line to it, then the docking
+    trajectory to it; toward the plan's own target as far, then the law to it at the plan's
+    ``v_max`` (the way the plan meant, without the crawl round: the law slows with its
+    curvature); and 1 to :data:`DODGE_TURN_STEPS` - 1 plan periods either way, then the
+    docking trajectory to the goal (round a person standing on the line to it). 16 in all
+    (:func:`.docking.turn_then_head`, :func:`.docking.turn_then_law`)."""
     limit = config.stall.turn_to_goal
     target = np.asarray(plan.trajectory.target, dtype=float)
     ways = [docking.turn_then_head(state, goal, config, limit)]
     if np.all(np.isfinite(target)):
         ways.append(docking.turn_then_head(state, target[:2], config, limit, target,
                                            float(plan.x[3])))
+    ways += [docking.turn_then_law(state, config, sign, steps, goal)
+             for sign in (1.0, -1.0) for steps in range(1, DODGE_TURN_STEPS)]
     return Trajectory(*(np.concatenate([getattr(t, f.name) for t in ways])
                         for f in dataclasses.fields(Trajectory)))
 
@@ -135,7 +139,7 @@ def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
     reverse = stands(plan, config) and (stalled or threat)
     dodge = stall.dodge and threatened(plan, config, stall.dodge_within)
     off = abs(float(docking.off_the_line(state.pose, cycle.goal)))
-    turn = stalled and 0.0 < stall.turn_to_goal < off
+    turn = level >= stall.turn_level and stall.turn_to_goal > 0.0
     sets = ([("reverse", back_up_trajectories(state, config))] if reverse else []) + (
         [("dodge", dodge_trajectories(state, config))] if dodge else []) + (
         [("turn", turn_trajectories(plan, state, cycle.goal, config))] if turn else [])
@@ -153,10 +157,11 @@ def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
     which = int(np.searchsorted(ends, best, side="right"))      # the set it came from
     kind, first = sets[which][0], best - (int(ends[which - 1]) if which else 0)
     if kind == "turn":
-        why = (f"stalled, facing {off:.2f} rad away from the goal (more than "
-               f"{stall.turn_to_goal:.2f})")
-        what = ("turning in place toward the goal, then heading to it", "turning in place "
-                "toward the plan's target, then heading to it")[first]
+        why = f"stalled, facing {off:.2f} rad away from the goal"
+        what = ("turning in place toward the goal, then heading to it" if first == 0 else
+                "turning in place toward the plan's target, then heading to it" if first == 1
+                else f"turning in place {'left' if chosen.omega[0] > 0 else 'right'}, then "
+                     "heading to the goal")
     elif kind == "reverse" and stalled:
         why = "stalled and the plan stood"
     else:
