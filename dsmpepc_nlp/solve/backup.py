@@ -139,7 +139,9 @@ def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
     reverse = stands(plan, config) and (stalled or threat)
     dodge = stall.dodge and threatened(plan, config, stall.dodge_within)
     off = abs(float(docking.off_the_line(state.pose, cycle.goal)))
-    turn = level >= stall.turn_level and stall.turn_to_goal > 0.0
+    # A docked plan already heads for the goal, turning in place first where it must.
+    turn = (level >= stall.turn_level and stall.turn_to_goal > 0.0
+            and plan.status != "docked")
     sets = ([("reverse", back_up_trajectories(state, config))] if reverse else []) + (
         [("dodge", dodge_trajectories(state, config))] if dodge else []) + (
         [("turn", turn_trajectories(plan, state, cycle.goal, config))] if turn else [])
