@@ -10,7 +10,9 @@ struck where the plan leaves it (``StallConfig.back_up_threat``), this rung sets
 trajectories against it, costed by the same exact cost (``exact_cost.evaluate``, the numpy
 reference: the compiled kernel and the graph only ever see the law's forward trajectories),
 and takes the cheapest when it is cheaper than the plan. ``StallConfig.back_up`` (m/s; 0 =
-off) and ``back_up_time``; docs/method.md section 7.5.
+off) and ``back_up_time``; docs/method.md section 7.5. With it come forward dodges against a
+plan the robot expects to be struck on (``StallConfig.dodge``) and, once stalled, turns in place
+each followed by the law (``StallConfig.turn_to_goal``): moves the law cannot make either.
 """
 
 from __future__ import annotations
