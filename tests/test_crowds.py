@@ -65,6 +65,28 @@ def test_crossing_is_seeded_clear_and_pedestrians_appear_on_time(tmp_path):
     assert np.all(np.abs(late.velocity_at(t)) < 2 for t in np.arange(0, 30, 0.2))
 
 
+def test_goal_clear_redraws_a_goal_a_person_stands_on_and_keeps_every_other_draw(tmp_path):
+    """A person standing at (5, 8) for the whole recording: without ``goal_clear`` some seeds
+    put the goal on them (a position a pedestrian took); with it none does, and a draw whose
+    goal was clear anyway is the same draw."""
+    path = write_recording(tmp_path / "toy.txt")
+    path.write_text(path.read_text() + "".join(f"{10 * k}\t5.0\t5.0\t8.0\n"
+                                               for k in range(150)))
+    rec = crowds.load_recording(path)
+    near, kept = 0, 0
+    for seed in range(40):
+        first, plain = crowds.crossing_scenario(rec, np.random.default_rng(seed), duration=20.0)
+        _, clear = crowds.crossing_scenario(rec, np.random.default_rng(seed),
+                                                   duration=20.0, goal_clear=True)
+        on_person = np.hypot(plain["goal"][0] - 5.0, plain["goal"][1] - 8.0) < 1.1
+        near += on_person
+        assert np.hypot(clear["goal"][0] - 5.0, clear["goal"][1] - 8.0) >= 1.1
+        if not crowds._occupied(first.pedestrians, plain["goal"], 20.0, 0.2, 1.1):
+            kept += 1
+            assert clear == plain
+    assert near > 0 and kept > 0
+
+
 def test_too_short_recording_is_an_error(tmp_path):
     rec = crowds.load_recording(write_recording(tmp_path / "toy.txt", n_steps=10))
     with pytest.raises(ValueError, match="shorter"):

@@ -6,9 +6,8 @@ them to the one parser of :mod:`dsmpepc_nlp.cli`, which dispatches to ``run`` an
 error policy: every option is checked by its type before anything runs or is stored, and bad
 input is an :class:`~dsmpepc_nlp.core.errors.InputError` (one line on stderr, exit 2).
 
-Results of the long benchmarks go to ``--out`` (one table per run, written after every row);
-a folder that already holds a table is continued with ``--resume`` or replaced with
-``--overwrite``. The summary goes to stdout (``--json``: one JSON object).
+Results of the long benchmarks go to ``--out`` (a table per run, written after every row,
+continued with ``--resume``, replaced with ``--overwrite``); the summary to stdout (``--json``).
 """
 
 from __future__ import annotations
@@ -185,8 +184,10 @@ def add_crowd(p) -> None:
     p.add_argument("--seed", type=options.seed, default=0)
     p.add_argument("--variants", nargs="+", default=["mpepc", "ds-mpepc"],
                    help=f"{', '.join(PLANNER_VARIANTS)}, orca, cv (constant-velocity baseline)")
-    p.add_argument("--duration", type=options.number(0.0, low_open=True), default=None,
-                   help=f"episode length, s (default {crowds.DEFAULT_DURATION})")
+    p.add_argument("--duration", type=options.number(0.0, low_open=True),
+                   default=crowds.DEFAULT_DURATION,
+                   help=f"episode length, s (default {crowds.DEFAULT_DURATION:g})")
+    p.add_argument("--goal-clear", action="store_true", help="goals clear at the window's end")
     _table_options(p, "results/crowd", configurable=True)
 
 
@@ -194,7 +195,7 @@ def run_crowd(args) -> dict:
     settings = crowds.CrowdSettings(data=str(Path(args.data).resolve()), scene=args.scene,
                                     solver=args.solver, n_samples=args.samples,
                                     preset=args.preset, overrides=overrides(args.set),
-                                    **({"duration": args.duration} if args.duration else {}))
+                                    goal_clear=args.goal_clear, duration=args.duration)
     return crowds.run_benchmark(settings, args.variants, args.episodes, args.seed, args.out,
                                 workers=args.workers, resume=args.resume,
                                 overwrite=args.overwrite)

@@ -156,10 +156,18 @@ def _tracks(recording: Recording, t0: float, t1: float, offset: float) -> list:
     return out
 
 
+def _occupied(peds, point, duration: float, dt: float, distance: float) -> bool:
+    """Whether a pedestrian comes nearer than ``distance`` (centre to centre) to ``point`` over
+    the last second of a window of ``duration`` s, on the simulation's times."""
+    times = np.arange(max(duration - 1.0, 0.0), duration + 1e-9, dt)
+    late = np.array([[p.position(t) for p in peds] for t in times])
+    return bool(late.size) and float(np.min(np.linalg.norm(late - point, axis=-1))) < distance
+
+
 def crossing_scenario(recording: Recording, rng: np.random.Generator, *,
                       duration=DEFAULT_DURATION, robot=None, dt=0.2, min_distance=4.0,
                       max_distance=8.0, start_clearance=0.5, goal_tolerance=0.3,
-                      min_pedestrians=3, tries=200, name=None):
+                      min_pedestrians=3, tries=200, name=None, goal_clear=False):
     """A seeded window of ``recording`` with a robot crossing where pedestrians walk.
 
     Parameters
@@ -183,6 +191,12 @@ def crossing_scenario(recording: Recording, rng: np.random.Generator, *,
         Success radius, m.
     min_pedestrians : int
         Windows with fewer distinct pedestrians are redrawn.
+    goal_clear : bool
+        Also keep the goal ``start_clearance`` from every pedestrian over the window's last
+        second (as the start over its first). Off by default: the goal is a position a
+        pedestrian took, and where people stand (a group talking) it can be one that someone
+        occupies until the window ends, which no robot can reach ('goal-occupied' in
+        ``dsmpepc failures``). The draws that pass the test are the same with it and without.
 
     Returns
     -------
@@ -215,6 +229,9 @@ def crossing_scenario(recording: Recording, rng: np.random.Generator, *,
         early = np.array([[p.position(t) for p in peds] for t in np.arange(0.0, 1.0 + 1e-9, dt)])
         if early.size and np.min(np.linalg.norm(early - start_xy, axis=-1)) \
                 < radius + PEDESTRIAN_RADIUS + start_clearance:
+            continue
+        if goal_clear and _occupied(peds, goal_xy, duration, dt,
+                                    radius + PEDESTRIAN_RADIUS + start_clearance):
             continue
         heading = math.atan2(goal_xy[1] - start_xy[1], goal_xy[0] - start_xy[0])
         agent = Agent("robot", RobotState(float(start_xy[0]), float(start_xy[1]), heading),
@@ -249,11 +266,15 @@ class CrowdSettings:
     """The planners' configuration: ``product`` or ``paper`` (``orca`` and ``cv`` ignore it)."""
     overrides: tuple = ()
     """``(name, value)`` pairs replacing fields of the preset (``--set``)."""
+    goal_clear: bool = False
+    """Redraw a goal a pedestrian occupies over the window's last second (``--goal-clear``;
+    :func:`crossing_scenario`)."""
 
     def meta(self) -> dict:
-        return {"benchmark": "crowd", "scene": self.scene, "solver": self.solver,
+        meta = {"benchmark": "crowd", "scene": self.scene, "solver": self.solver,
                 "n_samples": self.n_samples, "duration": self.duration,
                 "v_limit": self.v_limit, **config_meta(self.preset, self.overrides)}
+        return dict(meta, goal_clear=True) if self.goal_clear else meta
 
 
 def episode_scenario(settings: CrowdSettings, episode: int, seed: int):
@@ -263,7 +284,8 @@ def episode_scenario(settings: CrowdSettings, episode: int, seed: int):
     recording = load_recording(files[int(rng.integers(len(files)))])
     return crossing_scenario(recording, rng, duration=settings.duration,
                              robot=RobotConfig(v_limit=settings.v_limit),
-                             name=f"{settings.scene}-{seed}-{episode}")
+                             name=f"{settings.scene}-{seed}-{episode}",
+                             goal_clear=settings.goal_clear)
 
 
 def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int,
