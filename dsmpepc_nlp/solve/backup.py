@@ -83,12 +83,12 @@ def dodge_trajectories(state, config: PlannerConfig) -> Trajectory:
 
 
 def turn_trajectories(plan: Plan, state, goal, config: PlannerConfig) -> Trajectory:
-    """The turns in place of a stalled robot facing away from its goal (``stall.turn_to_goal``):
-    toward the goal until within ``turn_to_goal`` of the line to it, then the docking
-    trajectory to it; toward the plan's own target as far, then the law to it at the plan's
-    ``v_max`` (the way the plan meant, without the crawl round: the law slows with its
-    curvature); and 1 to :data:`DODGE_TURN_STEPS` - 1 plan periods either way, then the
-    docking trajectory to the goal (round a person standing on the line to it). 16 in all
+    """The turns in place of a stalled robot (``stall.turn_to_goal``): toward the goal until
+    within ``turn_to_goal`` of the line to it, then the docking trajectory to it; toward the
+    plan's own target as far, then the law to it at the plan's ``v_max`` (the way the plan
+    meant, without the crawl round: the law slows with its curvature); and 1 to
+    :data:`DODGE_TURN_STEPS` - 1 plan periods either way, then the docking trajectory to the
+    goal (round a person standing on the line to it). 16 in all
     (:func:`.docking.turn_then_head`, :func:`.docking.turn_then_law`)."""
     limit = config.stall.turn_to_goal
     target = np.asarray(plan.trajectory.target, dtype=float)
@@ -96,8 +96,10 @@ def turn_trajectories(plan: Plan, state, goal, config: PlannerConfig) -> Traject
     if np.all(np.isfinite(target)):
         ways.append(docking.turn_then_head(state, target[:2], config, limit, target,
                                            float(plan.x[3])))
-    ways += [docking.turn_then_law(state, config, sign, steps, goal)
-             for sign in (1.0, -1.0) for steps in range(1, DODGE_TURN_STEPS)]
+    for sign in (1.0, -1.0):      # one turning rollout a side, cut after 1..7 periods
+        turning = docking.turn_in_place(state, config, sign)
+        ways += [docking.turn_then_law(state, config, sign, steps, goal, turning=turning)
+                 for steps in range(1, DODGE_TURN_STEPS)]
     return Trajectory(*(np.concatenate([getattr(t, f.name) for t in ways])
                         for f in dataclasses.fields(Trajectory)))
 
@@ -129,9 +131,9 @@ def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
     """The rung's plan, or None (keep ``plan``). With the rung on: reverse trajectories when
     the plan stands and the ladder is at ``back_up_level`` or above or the plan is
     :func:`threatened`; forward dodges (``stall.dodge``) when it is threatened, standing or
-    not; the turn in place toward the goal (``stall.turn_to_goal``) when the ladder is at
-    ``back_up_level`` or above and the robot faces more than that away from its goal. The
-    cheapest of them by the exact cost replaces the plan if it is cheaper."""
+    not; turns in place (``stall.turn_to_goal``, :func:`turn_trajectories`) when the ladder
+    is at ``turn_level`` or above and the plan is not docked. The cheapest of them by the
+    exact cost replaces the plan if it is cheaper."""
     config = cycle.config
     stall = config.stall
     if stall.back_up <= 0.0:
@@ -140,7 +142,6 @@ def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
     stalled = level >= stall.back_up_level
     reverse = stands(plan, config) and (stalled or threat)
     dodge = stall.dodge and threatened(plan, config, stall.dodge_within)
-    off = abs(float(docking.off_the_line(state.pose, cycle.goal)))
     # A docked plan already heads for the goal, turning in place first where it must.
     turn = (level >= stall.turn_level and stall.turn_to_goal > 0.0
             and plan.status != "docked")
@@ -161,6 +162,7 @@ def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
     which = int(np.searchsorted(ends, best, side="right"))      # the set it came from
     kind, first = sets[which][0], best - (int(ends[which - 1]) if which else 0)
     if kind == "turn":
+        off = abs(float(docking.off_the_line(state.pose, cycle.goal)))
         why = f"stalled, facing {off:.2f} rad away from the goal"
         what = ("turning in place toward the goal, then heading to it" if first == 0 else
                 "turning in place toward the plan's target, then heading to it" if first == 1

@@ -68,7 +68,7 @@ def turn_then_head(state: RobotState, goal, config: PlannerConfig, limit: float,
     seen from where the turn ends, and its target the law's (the next plan's warm start)."""
     n = config.horizon.n_steps
     sign = 1.0 if off_the_line(state.pose, goal) > 0 else -1.0
-    turning = _turning(state, config, sign)
+    turning = turn_in_place(state, config, sign)
     off = np.abs(off_the_line(turning.poses.T, goal))
     k = next((i for i in range(1, n) if off[i] <= limit), n - 1)
     return turn_then_law(state, config, sign, k, goal, target, v_max, turning)
@@ -82,7 +82,7 @@ def turn_then_law(state: RobotState, config: PlannerConfig, sign: float, steps: 
     docking trajectory to ``goal`` (:func:`docking_z`): a batch of one. Its ``z`` is the
     law's part, seen from where the turn ends."""
     n = config.horizon.n_steps
-    turning = _turning(state, config, sign) if turning is None else turning
+    turning = turn_in_place(state, config, sign) if turning is None else turning
     k = min(max(int(steps), 1), n - 1)
     pose = turning.poses[k]
     if target is None:
@@ -97,7 +97,7 @@ def turn_then_law(state: RobotState, config: PlannerConfig, sign: float, steps: 
                       law.target[None])
 
 
-def _turning(state: RobotState, config: PlannerConfig, sign: float) -> Trajectory:
+def turn_in_place(state: RobotState, config: PlannerConfig, sign: float) -> Trajectory:
     """A whole horizon of turning in place at ``sign * omega_limit`` from the measured
     command (one trajectory)."""
     return commanded(state, config, np.tile((0.0, sign * config.robot.omega_limit),
