@@ -501,7 +501,7 @@ def test_nudge_starts_put_the_target_straight_ahead_by_whole_robot_radii():
     from dsmpepc_nlp.core.control_law import target_pose
 
     state, goal = RobotState(1.0, -2.0, 0.7), np.array([-4.0, 3.0])   # the goal off to the side
-    starts = structured_starts(state, goal, CONFIG)
+    starts = structured_starts(state, goal, CONFIG, solver=SolverConfig().replace(nudges=2))
     radius = CONFIG.robot.bounding_radius
     for k in (1, 2):
         z = starts[f"nudge-{k}"]
@@ -511,7 +511,7 @@ def test_nudge_starts_put_the_target_straight_ahead_by_whole_robot_radii():
         np.testing.assert_allclose(target[:2], ahead, atol=1e-12)
         assert abs(target[2] - 0.7) < 1e-12
     assert "nudge-3" not in starts
-    none = structured_starts(state, goal, CONFIG, solver=SolverConfig().replace(nudges=0))
-    assert not any(name.startswith("nudge") for name in none)
+    default = structured_starts(state, goal, CONFIG)         # off by default
+    assert not any(name.startswith("nudge") for name in default)
     with pytest.raises(ValueError, match="nudges"):
         SolverConfig().replace(nudges=-1)
