@@ -89,7 +89,7 @@ class MultistartSettings:
     (``nudge-1``, ``nudge-2``): the law's shortest moves, which a robot edging forward between
     obstacles takes. The screen draws r uniformly over the box, so under 8 % of its points lie
     within 0.6 m; two nudges find the best move of the t-corridor's stalled cycles (its
-    cross-check 89.3 -> 99.3 %), but lost one tuning run and won none, so they are off by
+    cross-check 89.3 -> 97.9 %), but lost one tuning run and won none, so they are off by
     default (docs/nlp.md, "Nudges")."""
 
     def __post_init__(self):
