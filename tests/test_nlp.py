@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState
-from dsmpepc_nlp.core.control_law import rollout
+from dsmpepc_nlp.core.control_law import rollout, target_pose
 from dsmpepc_nlp.core.cost_config import SmoothingConfig
 from dsmpepc_nlp.core.costs import assemble
 from dsmpepc_nlp.core.exact_cost import evaluate, exact_geometry
@@ -498,8 +498,6 @@ def test_the_final_polish_shares_its_walks_over_the_threads_and_ends_the_same(mo
 
 
 def test_nudge_starts_put_the_target_straight_ahead_by_whole_robot_radii():
-    from dsmpepc_nlp.core.control_law import target_pose
-
     state, goal = RobotState(1.0, -2.0, 0.7), np.array([-4.0, 3.0])   # the goal off to the side
     starts = structured_starts(state, goal, CONFIG, solver=SolverConfig().replace(nudges=2))
     radius = CONFIG.robot.bounding_radius
