@@ -81,7 +81,7 @@ def test_goal_clear_redraws_a_goal_a_person_stands_on_and_keeps_every_other_draw
         on_person = np.hypot(plain["goal"][0] - 5.0, plain["goal"][1] - 8.0) < 1.1
         near += on_person
         assert np.hypot(clear["goal"][0] - 5.0, clear["goal"][1] - 8.0) >= 1.1
-        if not crowds._occupied(first.pedestrians, plain["goal"], 20.0, 0.2, 1.1):
+        if not crowds._occupied(first.pedestrians, plain["goal"], 19.0, 20.0, 0.2, 1.1):
             kept += 1
             assert clear == plain
     assert near > 0 and kept > 0

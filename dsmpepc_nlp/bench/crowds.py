@@ -156,12 +156,12 @@ def _tracks(recording: Recording, t0: float, t1: float, offset: float) -> list:
     return out
 
 
-def _occupied(peds, point, duration: float, dt: float, distance: float) -> bool:
-    """Whether a pedestrian comes nearer than ``distance`` (centre to centre) to ``point`` over
-    the last second of a window of ``duration`` s, on the simulation's times."""
-    times = np.arange(max(duration - 1.0, 0.0), duration + 1e-9, dt)
-    late = np.array([[p.position(t) for p in peds] for t in times])
-    return bool(late.size) and float(np.min(np.linalg.norm(late - point, axis=-1))) < distance
+def _occupied(peds, point, start: float, end: float, dt: float, distance: float) -> bool:
+    """Whether a pedestrian comes nearer than ``distance`` (centre to centre) to ``point`` at
+    the simulation's times ``start, start + dt, ... <= end``, s."""
+    times = np.arange(max(start, 0.0), end + 1e-9, dt)
+    near = np.array([[p.position(t) for p in peds] for t in times])
+    return bool(near.size) and float(np.min(np.linalg.norm(near - point, axis=-1))) < distance
 
 
 def crossing_scenario(recording: Recording, rng: np.random.Generator, *,
@@ -226,12 +226,10 @@ def crossing_scenario(recording: Recording, rng: np.random.Generator, *,
         goal_xy = walked[rng.choice(np.flatnonzero(ok))]
         start_xy = start_xy + rng.normal(0.0, 0.1, 2)
         peds = _tracks(recording, t0, t0 + duration, dt / 2)
-        early = np.array([[p.position(t) for p in peds] for t in np.arange(0.0, 1.0 + 1e-9, dt)])
-        if early.size and np.min(np.linalg.norm(early - start_xy, axis=-1)) \
-                < radius + PEDESTRIAN_RADIUS + start_clearance:
+        clear = radius + PEDESTRIAN_RADIUS + start_clearance
+        if _occupied(peds, start_xy, 0.0, 1.0, dt, clear):              # the first second
             continue
-        if goal_clear and _occupied(peds, goal_xy, duration, dt,
-                                    radius + PEDESTRIAN_RADIUS + start_clearance):
+        if goal_clear and _occupied(peds, goal_xy, duration - 1.0, duration, dt, clear):
             continue
         heading = math.atan2(goal_xy[1] - start_xy[1], goal_xy[0] - start_xy[0])
         agent = Agent("robot", RobotState(float(start_xy[0]), float(start_xy[1]), heading),
