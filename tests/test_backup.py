@@ -10,12 +10,13 @@ import numpy as np
 import pytest
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState, StallConfig
+from dsmpepc_nlp.core.control_law import rollout
 from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.exact_cost import evaluate, exact_geometry
 from dsmpepc_nlp.core.grid import OccupancyGrid
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, World
-from dsmpepc_nlp.solve import backup
+from dsmpepc_nlp.solve import backup, docking
 from dsmpepc_nlp.solve.cycle import Cycle
 from dsmpepc_nlp.solve.planner import Planner
 
@@ -266,3 +267,31 @@ def test_the_turns_stay_within_the_limits_and_end_near_the_line_to_their_target(
 def test_bad_back_up_settings_are_refused_by_name(changes, field):
     with pytest.raises(InputError, match=field):
         StallConfig(**changes)
+
+
+def test_the_turns_law_rollouts_in_one_batch_are_each_the_law_from_where_its_turn_ends():
+    """``docking.turns_then_law`` rolls every cut's law out in one batch of different starts and
+    lengths; each row must be the turn up to its cut, then :func:`rollout` from the pose and
+    command the turn ends with, as if alone."""
+    config = PlannerConfig()
+    state, goal = RobotState(0.5, -0.3, 2.4, 0.4, -0.2), (3.0, 1.0)
+    left, right = (docking.turn_in_place(state, config, s) for s in (1.0, -1.0))
+    target = np.array([1.0, 2.0, 0.5])
+    cuts = [(left, 1, None, None), (right, 5, target, 0.7), (left, 23, None, None),
+            (right, 40, None, None)]                                 # 40: clipped to n - 1
+    batch = docking.turns_then_law(config, cuts, goal)
+    n = config.horizon.n_steps
+    assert batch.poses.shape == (4, n + 1, 3) and batch.v.shape == (4, n)
+    for i, (turning, steps, aim, _) in enumerate(cuts):
+        k = min(steps, n - 1)
+        pose = turning.poses[k]
+        alone = rollout(batch.z[i], RobotState(*pose, turning.v[k - 1], turning.omega[k - 1]),
+                        config)
+        np.testing.assert_array_equal(batch.poses[i], np.concatenate([turning.poses[:k + 1],
+                                                                       alone.poses[1:n - k + 1]]))
+        np.testing.assert_array_equal(batch.v[i], np.concatenate([turning.v[:k], alone.v[:n - k]]))
+        np.testing.assert_array_equal(batch.omega[i],
+                                      np.concatenate([turning.omega[:k], alone.omega[:n - k]]))
+        np.testing.assert_array_equal(batch.target[i], alone.target)
+        if aim is None:
+            np.testing.assert_array_equal(batch.z[i], docking.docking_z(pose, goal, config))

@@ -177,10 +177,20 @@ def rollout(z, state: RobotState, config: PlannerConfig, smoothing=EXACT) -> Tra
     if not np.all(np.isfinite(z)):
         raise InputError("z contains NaN or inf: must be finite")
     batch = np.atleast_2d(z)
-    n, n_steps = batch.shape[0], config.horizon.n_steps
-    ones = np.ones(n)
+    ones = np.ones(batch.shape[0])
     v0, omega0 = clamp_measured(state, config)
     carry = (state.x * ones, state.y * ones, state.phi * ones, v0 * ones, omega0 * ones)
+    result = rollout_from(batch, carry, config, smoothing)
+    return result[0] if z.ndim == 1 else result
+
+
+def rollout_from(batch, carry, config: PlannerConfig, smoothing=EXACT,
+                 n_steps: int | None = None) -> Trajectory:
+    """:func:`rollout` of ``batch`` (n, 4), each row from its own start ``carry = (x, y, phi,
+    v_prev, omega_prev)``, arrays (n,) with the previous command already within the limits,
+    over ``n_steps`` (default the horizon's): a batch."""
+    n = batch.shape[0]
+    n_steps = config.horizon.n_steps if n_steps is None else n_steps
     target = target_pose(batch.T, carry[:3])
     v_max = batch[:, 3]
     poses = np.empty((n, n_steps + 1, 3))
@@ -190,8 +200,7 @@ def rollout(z, state: RobotState, config: PlannerConfig, smoothing=EXACT) -> Tra
     for j in range(n_steps):
         carry, v[:, j], omega[:, j] = step(carry, target, v_max, config, smoothing)
         poses[:, j + 1] = np.stack(carry[:3], axis=-1)
-    result = Trajectory(batch, poses, v, omega, np.stack(target, axis=-1))
-    return result[0] if z.ndim == 1 else result
+    return Trajectory(batch, poses, v, omega, np.stack(target, axis=-1))
 
 
 def commanded(state, config: PlannerConfig, commands) -> Trajectory:

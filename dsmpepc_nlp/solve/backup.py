@@ -89,19 +89,19 @@ def turn_trajectories(plan: Plan, state, goal, config: PlannerConfig) -> Traject
     meant, without the crawl round: the law slows with its curvature); and 1 to
     :data:`DODGE_TURN_STEPS` - 1 plan periods either way, then the docking trajectory to the
     goal (round a person standing on the line to it). 16 in all
-    (:func:`.docking.turn_then_head`, :func:`.docking.turn_then_law`)."""
+    (:func:`.docking.turn_toward`, :func:`.docking.turns_then_law`)."""
     limit = config.stall.turn_to_goal
     target = np.asarray(plan.trajectory.target, dtype=float)
-    ways = [docking.turn_then_head(state, goal, config, limit)]
+    # One turning rollout a side serves every way, each cut where its turn ends; the law's
+    # rollouts after them run as one batch.
+    turnings = {sign: docking.turn_in_place(state, config, sign) for sign in (1.0, -1.0)}
+    cuts = [(*docking.turn_toward(state, goal, config, limit, turnings), None, None)]
     if np.all(np.isfinite(target)):
-        ways.append(docking.turn_then_head(state, target[:2], config, limit, target,
-                                           float(plan.x[3])))
-    for sign in (1.0, -1.0):      # one turning rollout a side, cut after 1..7 periods
-        turning = docking.turn_in_place(state, config, sign)
-        ways += [docking.turn_then_law(state, config, sign, steps, goal, turning=turning)
-                 for steps in range(1, DODGE_TURN_STEPS)]
-    return Trajectory(*(np.concatenate([getattr(t, f.name) for t in ways])
-                        for f in dataclasses.fields(Trajectory)))
+        cuts.append((*docking.turn_toward(state, target[:2], config, limit, turnings), target,
+                     float(plan.x[3])))
+    cuts += [(turning, steps, None, None) for turning in turnings.values()
+             for steps in range(1, DODGE_TURN_STEPS)]          # 1..7 periods either way
+    return docking.turns_then_law(config, cuts, goal)
 
 
 def stands(plan: Plan, config: PlannerConfig) -> bool:

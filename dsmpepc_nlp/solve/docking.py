@@ -8,7 +8,14 @@ import math
 import numpy as np
 
 from ..core.config import PlannerConfig, RobotState
-from ..core.control_law import Trajectory, commanded, rollout, wrap, z_from_target
+from ..core.control_law import (
+    Trajectory,
+    clamp_measured,
+    commanded,
+    rollout_from,
+    wrap,
+    z_from_target,
+)
 from ..core.exact_cost import evaluate
 from .evaluator import Evaluation, Evaluator
 from .starts import clip_to_bounds
@@ -66,35 +73,54 @@ def turn_then_head(state: RobotState, goal, config: PlannerConfig, limit: float,
     ``target`` at ``v_max`` when given, else the docking trajectory's (:func:`docking_z`: the
     goal, facing along the line of sight, at the speed limit). Its ``z`` is the law's part,
     seen from where the turn ends, and its target the law's (the next plan's warm start)."""
+    turning, steps = turn_toward(state, goal, config, limit)
+    return turns_then_law(config, [(turning, steps, target, v_max)], goal)
+
+
+def turn_toward(state: RobotState, goal, config: PlannerConfig, limit: float,
+                turnings=None) -> tuple:
+    """``(turning, steps)``: the turn in place toward ``goal`` (:func:`turn_in_place`, taken
+    from ``turnings`` by sign when given) and the plan periods after which the line to the
+    goal is within ``limit`` rad of the heading (the horizon's last but one at the most)."""
     n = config.horizon.n_steps
     sign = 1.0 if off_the_line(state.pose, goal) > 0 else -1.0
-    turning = turn_in_place(state, config, sign)
+    turning = turn_in_place(state, config, sign) if turnings is None else turnings[sign]
     off = np.abs(off_the_line(turning.poses.T, goal))
-    k = next((i for i in range(1, n) if off[i] <= limit), n - 1)
-    return turn_then_law(state, config, sign, k, goal, target, v_max, turning)
+    return turning, next((i for i in range(1, n) if off[i] <= limit), n - 1)
 
 
-def turn_then_law(state: RobotState, config: PlannerConfig, sign: float, steps: int, goal,
-                  target=None, v_max: float | None = None, turning=None) -> Trajectory:
-    """Turn in place at the full turn rate, left (``sign`` 1) or right (-1), for ``steps``
-    plan periods (within the acceleration limits from the measured command), then the law
-    over the rest of the horizon toward ``target`` at ``v_max``, or, without a target, on the
-    docking trajectory to ``goal`` (:func:`docking_z`): a batch of one. Its ``z`` is the
-    law's part, seen from where the turn ends."""
+def turns_then_law(config: PlannerConfig, cuts, goal) -> Trajectory:
+    """Turns in place, each cut after some plan periods and followed by the law over the rest
+    of the horizon, all the law's rollouts in one batch. ``cuts``: ``(turning, steps, target,
+    v_max)`` each, ``turning`` a :func:`turn_in_place` rollout, ``steps`` clipped to 1 ..
+    n - 1; the law then heads for the target pose ``target`` at ``v_max``, or, with ``target``
+    None, on the docking trajectory to ``goal`` (:func:`docking_z`). Each row's ``z`` is the
+    law's part, seen from where its turn ends."""
     n = config.horizon.n_steps
-    turning = turn_in_place(state, config, sign) if turning is None else turning
-    k = min(max(int(steps), 1), n - 1)
-    pose = turning.poses[k]
-    if target is None:
-        z = docking_z(pose, goal, config)
-    else:
-        z = clip_to_bounds(np.array(z_from_target(target, v_max, pose), dtype=float), config)
-    law = rollout(z, RobotState(*pose, turning.v[k - 1], turning.omega[k - 1]), config)
-    return Trajectory(z[None], np.concatenate([turning.poses[:k + 1],
-                                               law.poses[1:n - k + 1]])[None],
-                      np.concatenate([turning.v[:k], law.v[:n - k]])[None],
-                      np.concatenate([turning.omega[:k], law.omega[:n - k]])[None],
-                      law.target[None])
+    ks, zs, starts = [], [], []
+    for turning, steps, target, v_max in cuts:
+        k = min(max(int(steps), 1), n - 1)
+        pose = turning.poses[k]
+        if target is None:
+            z = docking_z(pose, goal, config)
+        else:
+            z = clip_to_bounds(np.array(z_from_target(target, v_max, pose), dtype=float),
+                               config)
+        ks.append(k)
+        zs.append(z)
+        starts.append((*pose, *clamp_measured(
+            RobotState(*pose, turning.v[k - 1], turning.omega[k - 1]), config)))
+    carry = tuple(np.array(column, dtype=float) for column in zip(*starts))
+    law = rollout_from(np.array(zs), carry, config, n_steps=n - min(ks))
+    turns = [cut[0] for cut in cuts]
+
+    def spliced(name, first):     # the turn's ``k`` steps, then the law's ``n - k``
+        return np.array([np.concatenate([getattr(turn, name)[:k + first],
+                                         getattr(law, name)[i, first:n - k + first]])
+                         for i, (turn, k) in enumerate(zip(turns, ks))])
+
+    return Trajectory(np.array(zs), spliced("poses", 1), spliced("v", 0), spliced("omega", 0),
+                      law.target)
 
 
 def turn_in_place(state: RobotState, config: PlannerConfig, sign: float) -> Trajectory:
