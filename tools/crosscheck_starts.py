@@ -1,0 +1,125 @@
+"""The NLP's starts against the cross-check: which cycles it misses, with which starts it would not.
+
+Replays the sampling episode of ``dsmpepc crosscheck SCENARIO`` (seed 0, DS-MPEPC, the product's
+defaults), plans every cycle with the NLP and with the 4096-sample reference as the command does
+(docking and the stall ladder off), and prints the misses (gap over 0.01: cycle, gap, both z).
+Options change the NLP's starts only; the episode and the reference stay the command's::
+
+    python tools/crosscheck_starts.py t-corridor                  # the defaults
+    python tools/crosscheck_starts.py t-corridor --nudges 2       # multistart.nudges
+    python tools/crosscheck_starts.py t-corridor --oracle         # + the reference's own z
+    python tools/crosscheck_starts.py hall --n-screen 512 --n-solved 4 --time
+    python tools/crosscheck_starts.py hall --extra edges          # theta-delta edge starts
+    python tools/crosscheck_starts.py t-corridor --r-power 2      # a screen denser at small r
+
+``--time`` also plans every cycle with the default NLP beside it and prints both plan-time
+medians and their ratio (the same process, alternating cycle by cycle).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import time
+
+os.environ.setdefault("DSMPEPC_COMPILE", "wait")
+
+import numpy as np  # noqa: E402
+
+import dsmpepc_nlp.solve.planner as planner_module  # noqa: E402
+from dsmpepc_nlp import Planner, PlannerConfig, SolverConfig  # noqa: E402
+from dsmpepc_nlp.sim.scenario import load_scenario  # noqa: E402
+from dsmpepc_nlp.sim.simulate import simulate  # noqa: E402
+
+EXTRA = {
+    # far, wide turns at the box's delta edge
+    "wide": lambda b, v: [np.array([0.7 * b.r_max, 0.0, s * 0.95 * b.delta_max, v])
+                          for s in (-1.0, 1.0)],
+    # theta and delta at their edges, the same side, slow and fast
+    "edges": lambda b, v: [np.array([3.0, s * b.theta_max, s * 0.85 * b.delta_max, f * v])
+                           for s in (-1.0, 1.0) for f in (0.3, 1.0)],
+}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("scenario")
+    parser.add_argument("--nudges", type=int, default=0)
+    parser.add_argument("--n-screen", type=int, default=256)
+    parser.add_argument("--n-solved", type=int, default=3)
+    parser.add_argument("--oracle", action="store_true",
+                        help="give the NLP the reference's best z as one more named start")
+    parser.add_argument("--extra", choices=sorted(EXTRA), action="append", default=[])
+    parser.add_argument("--r-power", type=float, default=1.0,
+                        help="screen r as r_min + (r_max - r_min) * u ** P (1: uniform)")
+    parser.add_argument("--time", action="store_true")
+    args = parser.parse_args()
+
+    episode = simulate(load_scenario(args.scenario), PlannerConfig.variant("ds-mpepc"),
+                       SolverConfig.sampling(), np.random.default_rng(0),
+                       record_trajectories=False)
+    cycles = episode.planning_inputs(0)
+    config = episode.config()
+    config = dataclasses.replace(config, stall=dataclasses.replace(config.stall, levels=0))
+    reference = Planner(config, SolverConfig.sampling(n_samples=4096, seed=0))
+    best = [reference.plan(state, world, goal, dock=False) for state, world, goal in cycles]
+
+    extra = {}
+    structured = planner_module.structured_starts
+
+    def with_extra(state, goal, config, previous_target=None, solver=None):
+        starts = structured(state, goal, config, previous_target, solver)
+        starts.update({name: np.clip(z, config.z_lower, config.z_upper)
+                       for name, z in extra.items()})
+        return starts
+
+    planner_module.structured_starts = with_extra
+    solver = SolverConfig().replace(nudges=args.nudges, n_screen=args.n_screen,
+                                    n_solved=args.n_solved)
+    nlp = Planner(config, solver)
+    nlp.prepare()
+    if args.r_power != 1.0:
+        inner = nlp.nlp
+        unit = (inner.screen - inner.lower) / (inner.upper - inner.lower)
+        unit[:, 0] **= args.r_power
+        inner.screen = inner.lower + unit * (inner.upper - inner.lower)
+        inner._box_starts = ([(f"spread-{i}", z) for i, z in enumerate(inner.spread)]
+                             + [(f"screen-{i}", z) for i, z in enumerate(inner.screen)])
+        inner._box_z = np.vstack([inner.spread, inner.screen]).reshape(-1, 4)
+    default = None
+    if args.time:
+        default = Planner(config, SolverConfig())
+        default.prepare()
+    times, default_times, misses = [], [], []
+    for k, ((state, world, goal), ref) in enumerate(zip(cycles, best)):
+        extra.clear()
+        for name in args.extra:
+            bounds, v_limit = config.bounds, config.robot.v_limit
+            extra.update({f"{name}-{i}": z for i, z in enumerate(EXTRA[name](bounds, v_limit))})
+        if args.oracle:
+            extra["oracle"] = np.asarray(ref.z, dtype=float)
+        started = time.perf_counter()
+        plan = nlp.plan(state, world, goal, dock=False)
+        times.append(time.perf_counter() - started)
+        if default is not None:
+            extra.clear()
+            started = time.perf_counter()
+            default.plan(state, world, goal, dock=False)
+            default_times.append(time.perf_counter() - started)
+        gap = plan.fun - ref.fun
+        if not gap <= 0.01:
+            misses.append(k)
+            print(f"cycle {k} (t = {k * config.horizon.dt:.1f} s): gap {gap:.4f}, NLP z "
+                  f"{np.round(plan.z, 3)}, reference z {np.round(ref.z, 3)}")
+    share = 1.0 - len(misses) / len(cycles)
+    print(f"{args.scenario}: {len(misses)} of {len(cycles)} cycles missed, {100 * share:.1f} % "
+          f"within 0.01")
+    if default_times:
+        a, b = np.median(times), np.median(default_times)
+        print(f"plan time median {1e3 * a:.1f} ms against the default's {1e3 * b:.1f} ms "
+              f"({a / b:.2f}x)")
+
+
+if __name__ == "__main__":
+    main()
