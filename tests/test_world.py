@@ -163,6 +163,23 @@ def test_navigation_with_goal_inside_obstacle_and_enclosed_cells_is_finite():
     assert np.all(np.isfinite(nf.gradient([[2.5, 1.5], [5.5, 3.5]])))
 
 
+def test_a_moving_goal_reuses_the_maps_free_cells_and_gets_the_same_values():
+    from dsmpepc_nlp.core import navigation
+
+    grid = u_maze()
+    goals = ([8.5, 1.5], [8.4, 1.7], [7.9, 2.6])
+    values = [NavigationFunction(goal, grid, inflation_radius=0.3).values for goal in goals]
+    window = navigation.navigation_window(grid, np.array(goals[0]), 2.0)
+    mask = navigation._free(grid, window, 0.3)
+    assert mask is navigation._free(grid, window, 0.3)        # kept, not recomputed
+    assert not mask.flags.writeable
+    assert navigation._free(grid, window, 0.6).sum() < mask.sum()   # the radius is in the key
+    for goal, kept in zip(goals, values):    # a fresh map (nothing kept) gives the same values
+        fresh = NavigationFunction(goal, u_maze(), inflation_radius=0.3).values
+        np.testing.assert_array_equal(kept, fresh)
+    assert not np.array_equal(values[0], values[2])
+
+
 def test_navigation_window_is_the_map_plus_margin_whatever_the_goal():
     grid = u_maze()
     inside = NavigationFunction([8.5, 1.5], grid, margin=2.0)

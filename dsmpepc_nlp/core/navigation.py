@@ -13,6 +13,7 @@ straight-line distance to the goal, the way a local planner follows a global pla
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 
 import numpy as np
 
@@ -91,12 +92,34 @@ def _crop(grid, window):
                                  grid.origin + grid.resolution * np.array([x0, y0]))
 
 
+FREE_CACHE_SIZE = 8
+"""Free-cell masks kept per map (by window and inflation radius), least recently used dropped."""
+
+
 def _free(grid, window, inflation_radius):
-    """Cells of ``window`` whose signed distance exceeds ``inflation_radius``, (ny, nx) bool.
+    """Cells of ``window`` whose signed distance exceeds ``inflation_radius``, (ny, nx) bool,
+    read-only.
 
     Only the map and the ring of cells within ``inflation_radius`` of it can be blocked, so the
     signed distance is computed there alone: a large window around a far robot costs no more.
+    The mask does not depend on the goal, so it is kept on the map per (window, radius): a
+    followed goal, which moves every cycle, rebuilds the navigation function on the same
+    window, and the signed distance was most of that rebuild.
     """
+    kept = grid.__dict__.setdefault("_free_cells", OrderedDict())
+    key = (window, inflation_radius)
+    if key in kept:
+        kept.move_to_end(key)
+        return kept[key]
+    free = _readonly(_free_cells(grid, window, inflation_radius))
+    kept[key] = free
+    while len(kept) > FREE_CACHE_SIZE:
+        kept.popitem(last=False)
+    return free
+
+
+def _free_cells(grid, window, inflation_radius):
+    """:func:`_free`'s mask, computed."""
     k = math.ceil(inflation_radius / grid.resolution) + 1
     ny, nx = grid.shape
     x0, y0, x1, y1 = window
