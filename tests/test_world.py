@@ -170,10 +170,15 @@ def test_a_moving_goal_reuses_the_maps_free_cells_and_gets_the_same_values():
     goals = ([8.5, 1.5], [8.4, 1.7], [7.9, 2.6])
     values = [NavigationFunction(goal, grid, inflation_radius=0.3).values for goal in goals]
     window = navigation.navigation_window(grid, np.array(goals[0]), 2.0)
-    mask = navigation._free(grid, window, 0.3)
-    assert mask is navigation._free(grid, window, 0.3)        # kept, not recomputed
-    assert not mask.flags.writeable
-    assert navigation._free(grid, window, 0.6).sum() < mask.sum()   # the radius is in the key
+    mask, cells = navigation._window_cells(grid, window, 0.3)
+    again = navigation._window_cells(grid, window, 0.3)
+    assert again[0] is mask and again[1] is cells               # kept, not recomputed
+    assert not mask.flags.writeable and not any(part.flags.writeable for part in cells)
+    wider, _ = navigation._window_cells(grid, window, 0.6)      # the radius is in the key
+    assert wider.sum() < mask.sum()
+    indptr, indices, data = cells      # every free cell's edges, and only theirs
+    assert indptr.size == mask.size + 1 and indices.size == data.size == indptr[-1]
+    assert np.all(np.diff(indptr)[~mask.ravel()] == 0) and np.all(mask.ravel()[indices])
     for goal, kept in zip(goals, values):    # a fresh map (nothing kept) gives the same values
         fresh = NavigationFunction(goal, u_maze(), inflation_radius=0.3).values
         np.testing.assert_array_equal(kept, fresh)

@@ -92,34 +92,37 @@ def _crop(grid, window):
                                  grid.origin + grid.resolution * np.array([x0, y0]))
 
 
-FREE_CACHE_SIZE = 8
-"""Free-cell masks kept per map (by window and inflation radius), least recently used dropped."""
+WINDOW_CACHE_SIZE = 8
+"""Windows whose free cells and cell graph are kept per map (by window and inflation radius),
+least recently used dropped."""
 
 
-def _free(grid, window, inflation_radius):
-    """Cells of ``window`` whose signed distance exceeds ``inflation_radius``, (ny, nx) bool,
-    read-only.
+def _window_cells(grid, window, inflation_radius):
+    """``(free, cells)`` of ``window``: the free-cell mask (:func:`_free_cells`, (ny, nx) bool)
+    and the CSR parts of the graph between its free cells (:func:`_cell_graph`), read-only.
 
-    Only the map and the ring of cells within ``inflation_radius`` of it can be blocked, so the
-    signed distance is computed there alone: a large window around a far robot costs no more.
-    The mask does not depend on the goal, so it is kept on the map per (window, radius): a
-    followed goal, which moves every cycle, rebuilds the navigation function on the same
-    window, and the signed distance was most of that rebuild.
+    Neither depends on the goal, so both are kept on the map per (window, radius): a followed
+    goal, which moves every cycle, rebuilds the navigation function on the same window, and
+    the mask's signed distance and the graph were most of that rebuild.
     """
-    kept = grid.__dict__.setdefault("_free_cells", OrderedDict())
+    kept = grid.__dict__.setdefault("_window_cells", OrderedDict())
     key = (window, inflation_radius)
     if key in kept:
         kept.move_to_end(key)
         return kept[key]
     free = _readonly(_free_cells(grid, window, inflation_radius))
-    kept[key] = free
-    while len(kept) > FREE_CACHE_SIZE:
+    kept[key] = free, _cell_graph(free, grid.resolution)
+    while len(kept) > WINDOW_CACHE_SIZE:
         kept.popitem(last=False)
-    return free
+    return kept[key]
 
 
 def _free_cells(grid, window, inflation_radius):
-    """:func:`_free`'s mask, computed."""
+    """Cells of ``window`` whose signed distance exceeds ``inflation_radius``, (ny, nx) bool.
+
+    Only the map and the ring of cells within ``inflation_radius`` of it can be blocked, so the
+    signed distance is computed there alone: a large window around a far robot costs no more.
+    """
     k = math.ceil(inflation_radius / grid.resolution) + 1
     ny, nx = grid.shape
     x0, y0, x1, y1 = window
@@ -134,8 +137,9 @@ def _free_cells(grid, window, inflation_radius):
 _STEPS = ((0, 1), (0, -1), (1, 0), (-1, 0), (1, 1), (1, -1), (-1, 1), (-1, -1))
 
 
-def _grid_graph(free, res, seeds, seed_weights):
-    """CSR graph of the 8-connected free cells plus a source node (the last) feeding the seeds.
+def _cell_graph(free, res):
+    """CSR parts ``(indptr, indices, data)`` of the 8-connected free cells' rows (``indptr``
+    of length ny * nx + 1), read-only.
 
     Edges of ``res`` and ``res * sqrt(2)``; no diagonal past a blocked cell. Built row by row
     in CSR order directly (no COO sort), since it is the larger part of a window's cost.
@@ -154,11 +158,22 @@ def _grid_graph(free, res, seeds, seed_weights):
     mask = np.stack(masks, -1).reshape(n, 8)
     neighbour = np.stack(neighbours, -1).reshape(n, 8)
     length = np.array([res * math.sqrt(2.0) if dy and dx else res for dy, dx in _STEPS])
-    indptr = np.zeros(n + 2, dtype=np.int64)
-    np.cumsum(mask.sum(axis=1), out=indptr[1:n + 1])
+    indptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(mask.sum(axis=1), out=indptr[1:])
+    return (_readonly(indptr), _readonly(neighbour[mask]),
+            _readonly(np.broadcast_to(length, (n, 8))[mask]))
+
+
+def _grid_graph(cells, seeds, seed_weights):
+    """CSR graph of the free cells (``cells``, :func:`_cell_graph`) plus a source node (the
+    last) feeding the seeds."""
+    cell_indptr, cell_indices, cell_data = cells
+    n = cell_indptr.size - 1
+    indptr = np.empty(n + 2, dtype=np.int64)
+    indptr[:n + 1] = cell_indptr
     indptr[-1] = indptr[-2] + seeds.size
-    indices = np.concatenate([neighbour[mask], seeds])
-    data = np.concatenate([np.broadcast_to(length, (n, 8))[mask], seed_weights])
+    indices = np.concatenate([cell_indices, seeds])
+    data = np.concatenate([cell_data, seed_weights])
     from scipy.sparse import csr_matrix  # imported on first use (see grid.py)
 
     return csr_matrix((data, indices, indptr), shape=(n + 1, n + 1))
@@ -224,9 +239,10 @@ class NavigationFunction:
         if grid is not None:
             window = navigation_window(grid, self.goal, margin, near, reach)
             self.working_grid = _crop(grid, window)
-            self.values = _readonly(self._solve(_free(grid, window, self.inflation_radius)))
+            self.values = _readonly(self._solve(
+                *_window_cells(grid, window, self.inflation_radius)))
 
-    def _solve(self, free):
+    def _solve(self, free, cells):
         work = self.working_grid
         res = work.resolution
         ny, nx = work.shape
@@ -240,7 +256,7 @@ class NavigationFunction:
         # edges are offset by res so no weight is zero (a zero would read as "no edge").
         index = np.arange(ny * nx).reshape(ny, nx)
         seeds = self._seeds(free, to_goal, index)
-        graph = _grid_graph(free, res, seeds, to_goal.ravel()[seeds] + res)
+        graph = _grid_graph(cells, seeds, to_goal.ravel()[seeds] + res)
         from scipy.sparse.csgraph import dijkstra  # imported on first use (see grid.py)
 
         dist = dijkstra(graph, directed=True, indices=ny * nx)[:-1].reshape(ny, nx) - res
