@@ -89,6 +89,8 @@ def main() -> None:
                         help="also time whole passes over the cycles, the setting's NLP and "
                              "the default's one after the other, twice")
     args = parser.parse_args()
+    if args.rolling and args.r_power != 1.0:
+        parser.error("--rolling draws its own screen: it does not combine with --r-power")
 
     episode = simulate(load_scenario(args.scenario),
                        (PlannerConfig.paper if args.episode == "paper" else
