@@ -513,3 +513,20 @@ def test_nudge_starts_put_the_target_straight_ahead_by_whole_robot_radii():
     assert not any(name.startswith("nudge") for name in default)
     with pytest.raises(ValueError, match="nudges"):
         SolverConfig().replace(nudges=-1)
+
+
+def test_use_screen_replaces_the_screened_points_and_keeps_the_spread_starts():
+    """``use_screen`` (the tools' way to try another screen) is what the constructor does with
+    the configured Sobol points: the records name and cost exactly the new points."""
+    solver = NlpSolver(CONFIG, SolverConfig().replace(n_spread=2, n_screen=16, max_iter=5,
+                                            **BUCKETS), SMALL)
+    configured = solver.screen.copy()
+    mine = configured[:5] * 0.5 + 0.5 * np.asarray(CONFIG.z_lower)
+    solver.use_screen(mine)
+    state, world, goal = _demo_cycle()
+    starts = structured_starts(state, goal, CONFIG)
+    records = solver.solve(Evaluator(Cycle.prepare(state, world, goal, CONFIG)), starts)
+    assert solver.last_screen["rows"] == len(starts) + 2 + 5
+    screened = [r for r in records if r.name.startswith("screen-")]
+    assert len(screened) == 5 and sum(r.name.startswith("spread-") for r in records) == 2
+    np.testing.assert_array_equal(np.array([r.z0 for r in screened]), mine)

@@ -54,14 +54,6 @@ EXTRA = {
 }
 
 
-def set_screen(inner, screen) -> None:
-    """Give the multistart NLP ``inner`` another screen (its named box starts follow)."""
-    inner.screen = screen
-    inner._box_starts = ([(f"spread-{i}", z) for i, z in enumerate(inner.spread)]
-                         + [(f"screen-{i}", z) for i, z in enumerate(inner.screen)])
-    inner._box_z = np.vstack([inner.spread, inner.screen]).reshape(-1, 4)
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenario")
@@ -124,7 +116,7 @@ def main() -> None:
         unit = (inner.screen - inner.lower) / (inner.upper - inner.lower)
         first = int(round((1.0 - args.r_power_share) * len(unit)))
         unit[first:, 0] **= args.r_power
-        set_screen(inner, inner.lower + unit * (inner.upper - inner.lower))
+        inner.use_screen(inner.lower + unit * (inner.upper - inner.lower))
     default = None
     if args.time:
         default = Planner(config, SolverConfig())
@@ -144,7 +136,7 @@ def main() -> None:
         extra.update({f"memory-{i}": z for i, z in enumerate(memory)})
         if args.rolling:
             n = len(nlp.nlp.screen)
-            set_screen(nlp.nlp, pool[np.arange(k * n, (k + 1) * n) % len(pool)])
+            nlp.nlp.use_screen(pool[np.arange(k * n, (k + 1) * n) % len(pool)])
         started = time.perf_counter()
         plan = nlp.plan(state, world, goal, dock=False)
         times.append(time.perf_counter() - started)

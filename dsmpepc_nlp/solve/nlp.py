@@ -101,12 +101,7 @@ class NlpSolver:
         self._solver = solvers.make_solver(self.solver_config)
         starts = self.solver_config.multistart
         self.spread = box_samples(config, starts.n_spread, self.solver_config.seed)
-        self.screen = box_samples(config, starts.n_screen,
-                                  self.solver_config.seed + 1)
-        # The box starts are the same every cycle: named and stacked once.
-        self._box_starts = ([(f"spread-{i}", z) for i, z in enumerate(self.spread)]
-                            + [(f"screen-{i}", z) for i, z in enumerate(self.screen)])
-        self._box_z = np.vstack([self.spread, self.screen]).reshape(-1, 4)
+        self.use_screen(box_samples(config, starts.n_screen, self.solver_config.seed + 1))
         self._lam_x = None
         self._seen = set()
         self._ready = set()
@@ -159,6 +154,15 @@ class NlpSolver:
             self._seen.add(problem)
             self.build_s += time.perf_counter() - started
         return problem
+
+    def use_screen(self, screen) -> None:
+        """Screen ``screen`` (n, 4) from now on instead of the configured Sobol points (tools
+        that try other screens call it). The box starts are the same every cycle: named and
+        stacked here, once."""
+        self.screen = np.asarray(screen, dtype=float).reshape(-1, 4)
+        self._box_starts = ([(f"spread-{i}", z) for i, z in enumerate(self.spread)]
+                            + [(f"screen-{i}", z) for i, z in enumerate(self.screen)])
+        self._box_z = np.vstack([self.spread, self.screen]).reshape(-1, 4)
 
     def _choose(self, named, costs) -> list:
         """Indices to solve from: ``warm`` first, then the best distinct others by exact cost."""
