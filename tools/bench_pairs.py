@@ -1,0 +1,148 @@
+"""Plan time of this checkout against another revision: alternated ``dsmpepc bench`` pairs.
+
+The machine is shared and noisy, so a plan-time budget ("within 1.1x of the code the issue was
+filed on") is checked with both sides timed in one run, alternated, each first in half of the
+pairs, and read as the median of the pairs' ratios. This script does that: it checks ``BASE``
+(a revision) out into a temporary git worktree, then runs ``python -m dsmpepc_nlp bench
+--cycles N --json`` from a folder outside both, with ``PYTHONPATH`` pointing at the base
+worktree or at this checkout, once each as a warm-up (it compiles what the base's cache lacks;
+not counted), then ``--pairs`` times each::
+
+    python tools/bench_pairs.py 932845c --pairs 16
+    python tools/bench_pairs.py 932845c --pairs 4 --out /tmp/pairs --json
+
+Each run's JSON is kept in ``--out`` (``base-K.json``, ``this-K.json``) and the summary printed:
+for each figure (default, fast and sampler medians, default p95, the exact cost a trajectory,
+each planner's time outside and inside its solver's runs), both sides' medians over the runs,
+the ratio of those medians, and the pairs' ratios (this / base): median, smallest, largest.
+Each side runs at its own defaults. How docs/results.md's "against the code the issue was filed
+on" table was measured.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+
+FIGURES = {
+    "default median, ms": ("default", "median_ms"),
+    "default p95, ms": ("default", "p95_ms"),
+    "default outside the solves, ms": ("default", "overhead_ms"),
+    "default inside the solves, ms": ("default", "solver_ms"),
+    "fast median, ms": ("fast", "median_ms"),
+    "fast outside the solves, ms": ("fast", "overhead_ms"),
+    "fast inside the solves, ms": ("fast", "solver_ms"),
+    "sampler median, ms": ("sampling", "median_ms"),
+    "exact cost, us a trajectory": ("exact_us_per_trajectory",),
+}
+"""Summary rows: a name and the key path into ``dsmpepc bench --json``'s object."""
+
+
+def figure(run: dict, path: tuple) -> float:
+    """The number at ``path`` in one bench object (NaN where that version does not report it)."""
+    value = run
+    for key in path:
+        if not isinstance(value, dict) or key not in value:
+            return float("nan")
+        value = value[key]
+    return float(value) if isinstance(value, (int, float)) else float("nan")
+
+
+def summarise(base: list, this: list) -> dict:
+    """Per figure: both sides' medians over their runs, the ratio of the medians, and the
+    pairs' ratios (``this[k] / base[k]``) as median, min and max. ``base`` and ``this`` are
+    bench objects, pair k at index k."""
+    if len(base) != len(this) or not base:
+        raise ValueError("base and this need the same number of runs, at least one")
+    summary = {}
+    for name, path in FIGURES.items():
+        a = [figure(run, path) for run in base]
+        b = [figure(run, path) for run in this]
+        pairs = [y / x for x, y in zip(a, b) if x > 0 and x == x and y == y]
+        a_median = statistics.median(a) if all(x == x for x in a) else float("nan")
+        b_median = statistics.median(b) if all(y == y for y in b) else float("nan")
+        summary[name] = {
+            "base_median": a_median, "this_median": b_median,
+            "ratio_of_medians": b_median / a_median if a_median > 0 else float("nan"),
+            "pairs": len(pairs),
+            "pairs_ratio_median": statistics.median(pairs) if pairs else float("nan"),
+            "pairs_ratio_min": min(pairs) if pairs else float("nan"),
+            "pairs_ratio_max": max(pairs) if pairs else float("nan"),
+        }
+    return summary
+
+
+def table(summary: dict) -> str:
+    """The summary as aligned text."""
+    lines = [f"{'figure':32s} {'base':>8s} {'this':>8s} {'ratio':>6s}   "
+             "pairs' ratio: median (range)"]
+    for name, row in summary.items():
+        lines.append(f"{name:32s} {row['base_median']:8.2f} {row['this_median']:8.2f} "
+                     f"{row['ratio_of_medians']:6.2f}   {row['pairs_ratio_median']:.2f} "
+                     f"({row['pairs_ratio_min']:.2f}-{row['pairs_ratio_max']:.2f})")
+    return "\n".join(lines)
+
+
+def bench(source: Path, cycles: int, out: Path, cwd: Path) -> dict:
+    """One ``dsmpepc bench --json`` run of the package at ``source``; its object, also saved."""
+    env = dict(os.environ, PYTHONPATH=str(source))
+    done = subprocess.run([sys.executable, "-m", "dsmpepc_nlp", "bench", "--cycles", str(cycles),
+                           "--json"], cwd=cwd, env=env, capture_output=True, text=True,
+                          check=False)
+    if done.returncode != 0:
+        raise SystemExit(f"bench failed for {source} (status {done.returncode}):\n"
+                         f"{done.stderr[-2000:]}")
+    out.write_text(done.stdout)
+    return json.loads(done.stdout)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("base", help="the revision to compare against (a commit, tag or branch)")
+    parser.add_argument("--pairs", type=int, default=8)
+    parser.add_argument("--cycles", type=int, default=20)
+    parser.add_argument("--out", help="folder for each run's JSON (default: a temporary one)")
+    parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+    args = parser.parse_args(argv)
+    if args.pairs < 1 or args.cycles < 1:
+        parser.error("--pairs and --cycles must be at least 1")
+    out = Path(args.out or tempfile.mkdtemp(prefix="bench-pairs-"))
+    out.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="bench-pairs-base-") as folder:
+        worktree = Path(folder) / "base"
+        subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", str(worktree),
+                        args.base], check=True, capture_output=True)
+        try:
+            sides = {"base": worktree, "this": REPO}
+            for side, source in sides.items():
+                bench(source, args.cycles, out / f"{side}-warmup.json", Path(folder))
+            runs = {"base": [], "this": []}
+            for k in range(args.pairs):
+                order = ("base", "this") if k % 2 == 0 else ("this", "base")
+                for side in order:
+                    runs[side].append(bench(sides[side], args.cycles, out / f"{side}-{k}.json",
+                                            Path(folder)))
+        finally:
+            subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force",
+                            str(worktree)], check=False, capture_output=True)
+    summary = summarise(runs["base"], runs["this"])
+    if args.json:
+        print(json.dumps({"base": args.base, "pairs": args.pairs, "out": str(out),
+                          "figures": summary}, indent=1))
+    else:
+        print(f"this checkout against {args.base}, {args.pairs} alternated pairs "
+              f"(runs in {out})")
+        print(table(summary))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
