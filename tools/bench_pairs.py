@@ -13,8 +13,9 @@ not counted), then ``--pairs`` times each::
 
 Each run's JSON is kept in ``--out`` (``base-K.json``, ``this-K.json``) and the summary printed:
 for each figure (default, fast and sampler medians, default p95, the exact cost a trajectory,
-each planner's time outside and inside its solver's runs), both sides' medians over the runs,
-the ratio of those medians, and the pairs' ratios (this / base): median, smallest, largest.
+each planner's time outside and inside its solver's runs and its iterations a solve), both
+sides' medians over the runs, the ratio of those medians, and the pairs' ratios (this / base):
+median, smallest, largest.
 Each side runs at its own defaults. How docs/results.md's "against the code the issue was filed
 on" table was measured.
 """
@@ -23,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import statistics
 import subprocess
@@ -37,9 +39,11 @@ FIGURES = {
     "default p95, ms": ("default", "p95_ms"),
     "default outside the solves, ms": ("default", "overhead_ms"),
     "default inside the solves, ms": ("default", "solver_ms"),
+    "default iterations a solve": ("default", "iterations"),
     "fast median, ms": ("fast", "median_ms"),
     "fast outside the solves, ms": ("fast", "overhead_ms"),
     "fast inside the solves, ms": ("fast", "solver_ms"),
+    "fast iterations a solve": ("fast", "iterations"),
     "sampler median, ms": ("sampling", "median_ms"),
     "exact cost, us a trajectory": ("exact_us_per_trajectory",),
 }
@@ -66,9 +70,9 @@ def summarise(base: list, this: list) -> dict:
     for name, path in FIGURES.items():
         a = [figure(run, path) for run in base]
         b = [figure(run, path) for run in this]
-        pairs = [y / x for x, y in zip(a, b) if x > 0 and x == x and y == y]
-        a_median = statistics.median(a) if all(x == x for x in a) else float("nan")
-        b_median = statistics.median(b) if all(y == y for y in b) else float("nan")
+        pairs = [y / x for x, y in zip(a, b) if x > 0 and not math.isnan(y)]
+        a_median = _median(a)
+        b_median = _median(b)
         summary[name] = {
             "base_median": a_median, "this_median": b_median,
             "ratio_of_medians": b_median / a_median if a_median > 0 else float("nan"),
@@ -78,6 +82,11 @@ def summarise(base: list, this: list) -> dict:
             "pairs_ratio_max": max(pairs) if pairs else float("nan"),
         }
     return summary
+
+
+def _median(values: list) -> float:
+    """The median, or NaN when a run lacks the figure (a side's version does not report it)."""
+    return float("nan") if any(math.isnan(v) for v in values) else statistics.median(values)
 
 
 def table(summary: dict) -> str:
