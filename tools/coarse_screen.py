@@ -16,6 +16,7 @@ best of all the points::
 
     python tools/coarse_screen.py t-corridor
     python tools/coarse_screen.py hall --dt 0.4 0.5 1.0 --points 4096 --keep 64 --every 7
+    python tools/coarse_screen.py hall --cycles 13 23 42     # cycles the NLP misses
 """
 
 from __future__ import annotations
@@ -96,14 +97,21 @@ def main(argv=None) -> int:
     parser.add_argument("--points", type=int, default=4096)
     parser.add_argument("--keep", type=int, default=64)
     parser.add_argument("--every", type=int, default=7)
+    parser.add_argument("--cycles", type=int, nargs="+", default=None,
+                        help="measure at these cycles (e.g. the misses crosscheck_starts.py "
+                             "lists) instead of every --every-th")
     args = parser.parse_args(argv)
     episode = simulate(load_scenario(args.scenario), PlannerConfig.variant("ds-mpepc"),
                        SolverConfig.sampling(), np.random.default_rng(0),
                        record_trajectories=False)
     config = dataclasses.replace(PlannerConfig.variant("ds-mpepc"), robot=episode.config().robot)
-    cycles = episode.planning_inputs(0)[::args.every]
+    every = episode.planning_inputs(0)
+    if args.cycles is None:
+        cycles, which = every[::args.every], f"every {args.every}th"
+    else:
+        cycles, which = [every[k] for k in args.cycles], "those given"
     found = measure(cycles, config, args.dt, args.points, args.keep)
-    print(f"{args.scenario}, {len(cycles)} cycles (every {args.every}th)")
+    print(f"{args.scenario}, {len(cycles)} cycles ({which})")
     print(table(found, config.horizon.dt, args.points, args.keep))
     return 0
 

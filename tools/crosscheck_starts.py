@@ -2,7 +2,8 @@
 
 Replays the sampling episode of ``dsmpepc crosscheck SCENARIO`` (seed 0, DS-MPEPC, the product's
 defaults), plans every cycle with the NLP and with the 4096-sample reference as the command does
-(docking and the stall ladder off), and prints the misses (gap over 0.01: cycle, gap, both z).
+(docking and the stall ladder off), and prints the misses (gap over 0.01: cycle, the robot's
+speed and distance to its goal, gap, both z).
 Options change the NLP's starts only; the episode and the reference stay the command's::
 
     python tools/crosscheck_starts.py t-corridor                  # the defaults
@@ -158,7 +159,9 @@ def main() -> None:
         gap = plan.fun - ref.fun
         if not gap <= 0.01:
             misses.append(k)
-            print(f"cycle {k} (t = {k * config.horizon.dt:.1f} s): gap {gap:.4f}, NLP z "
+            away = float(np.hypot(goal[0] - state.x, goal[1] - state.y))
+            print(f"cycle {k} (t = {k * config.horizon.dt:.1f} s, v {state.v:.2f} m/s, "
+                  f"{away:.2f} m from the goal): gap {gap:.4f}, NLP z "
                   f"{np.round(plan.z, 3)}, reference z {np.round(ref.z, 3)}")
     share = 1.0 - len(misses) / len(cycles)
     print(f"{args.scenario}: {len(misses)} of {len(cycles)} cycles missed, {100 * share:.1f} % "
