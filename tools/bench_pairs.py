@@ -10,6 +10,7 @@ not counted), then ``--pairs`` times each::
 
     python tools/bench_pairs.py 932845c --pairs 16
     python tools/bench_pairs.py 932845c --pairs 4 --out /tmp/pairs --json
+    python tools/bench_pairs.py HEAD --pairs 4     # the same code both sides: the noise floor
 
 Each run's JSON is kept in ``--out`` (``base-K.json``, ``this-K.json``) and the summary printed:
 for each figure (default, fast and sampler medians, default p95, the exact cost a trajectory,
