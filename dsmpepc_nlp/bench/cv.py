@@ -92,8 +92,9 @@ class ConstantVelocityPlanner:
         return np.where(hit.any(axis=1), t[np.argmax(hit, axis=1)], math.inf)
 
     def plan(self, state: RobotState, world, goal, *, dock: bool = True,
-             sample: bool = False) -> OrcaPlan:
-        """One cycle: the chosen rollout's first command; ``dock``/``sample`` unused."""
+             sample: bool = False, goal_tolerance: float = 0.0) -> OrcaPlan:
+        """One cycle: the chosen rollout's first command; ``dock``, ``sample`` and
+        ``goal_tolerance`` unused."""
         started = time.perf_counter()
         poses, vs, ws = self.rollouts(state, goal)
         contact = self.first_contact(poses, world)

@@ -229,8 +229,9 @@ class OrcaPlanner:
         return float(v), float(omega)
 
     def plan(self, state: RobotState, world, goal, *, dock: bool = True,
-             sample: bool = False) -> OrcaPlan:
-        """One cycle: ORCA's velocity, converted to ``(v, omega)``; ``dock``/``sample`` unused."""
+             sample: bool = False, goal_tolerance: float = 0.0) -> OrcaPlan:
+        """One cycle: ORCA's velocity, converted to ``(v, omega)``; ``dock``, ``sample`` and
+        ``goal_tolerance`` unused."""
         started = time.perf_counter()
         u = self.holonomic_velocity(state, world, goal)
         v, omega = self.to_unicycle(state, u)

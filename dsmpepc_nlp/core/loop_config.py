@@ -50,7 +50,20 @@ class DockingConfig:
     On by default since the tuning episodes (CrowdNav seed 1, three settings; ETH/UCY eth and
     hotel): 7 won, 1 lost, collisions unchanged (docs/results.md)."""
 
+    region_points: int = 0
+    """Our extension, a count (0: off, as in :meth:`PlannerConfig.paper`): when the straight
+    trajectory to the goal point fails the survivability test within ``radius`` (IROS 2012's
+    2 m, the last metres, not the horizon's reach), try docking at this many points evenly
+    round the circle of radius ``goal_tolerance - arrival_radius`` about the goal (the first
+    the nearest to the robot), each judged by the same test, and take the one of lowest exact
+    cost that passes. ``goal_tolerance`` is the task's (``Planner.plan``'s argument: how near
+    the goal counts as arrived); the robot is judged by it, so any point that near is its goal,
+    and a person standing beside the goal point need not keep it off the rest. 8 points put
+    neighbours 0.15 m apart on the 0.2 m circle of a 0.3 m tolerance, under a person's
+    radius (docs/method.md section 7.1)."""
+
     def __post_init__(self):
+        check_integers(self, {"region_points": 0})
         validate_fields(self, {"radius": dict(low=0.0), "min_survival": dict(low=0.0, high=1.0),
                                 "arrival_radius": dict(low=0.0),
                                 "turn_in_place": dict(low=0.0, high=math.pi)})

@@ -203,9 +203,12 @@ class _Loop:
             world = self.base_world.with_obstacles(ped_obs + others + self.parked)
             state = RobotState(*(float(v) for v in self.states[i]))
             sample = k in record_samples
-            dock = self.agents[i].goal.kind == "fixed" or self.configs[i].docking.follow
+            fixed = self.agents[i].goal.kind == "fixed"
+            dock = fixed or self.configs[i].docking.follow
             plan = self.planners[i].plan(state, world, self.hist_goals[i][-1], dock=dock,
-                                         sample=sample)
+                                         sample=sample,
+                                         goal_tolerance=self.agents[i].goal.tolerance
+                                         if fixed else 0.0)
             plans[i] = plan
             if sample and plan.evaluated is not None:
                 samples[(i, k)] = _best_samples(plan.evaluated, max_samples)

@@ -21,45 +21,92 @@ from .evaluator import Evaluation, Evaluator
 from .starts import clip_to_bounds
 
 
-def dock(evaluator: Evaluator, config: PlannerConfig) -> tuple | None:
+def dock(evaluator: Evaluator, config: PlannerConfig, goal_tolerance: float = 0.0) -> tuple | None:
     """``(evaluation, message)`` of the straight-to-the-goal trajectory when the goal of the
     ``evaluator``'s cycle is within the docking radius and that trajectory's survivability
-    (until arrival, see :func:`arrival_survival`) is above ``min_survival``; else None."""
+    (until arrival, see :func:`arrival_survival`) is above ``min_survival``; else, with
+    ``docking.region_points`` and a ``goal_tolerance`` (m, the task's) above the arrival
+    radius, the cheapest passing trajectory to a point of the goal's region
+    (:func:`region_targets`); else None."""
     state, goal = evaluator.cycle.state, evaluator.cycle.goal
     docking = config.docking
     distance = math.hypot(goal[0] - state.x, goal[1] - state.y)
     radius = docking_radius(config)
     if distance > radius or distance == 0.0:
         return None
-    off = abs(float(off_the_line(state.pose, goal)))
-    if 0.0 < docking.turn_in_place < off:
-        evaluated = turn_then_dock(evaluator, goal)
-        how = (f"turning in place first ({off:.2f} rad off the line to it, more than "
-               f"{docking.turn_in_place:g}), then heading straight to it")
-    else:
-        evaluated = evaluator.evaluate(docking_z(state.pose, goal, config))
-        how = "heading straight to it"
+    evaluated, how = approach(evaluator, goal, config)
     step, survival = arrival_survival(evaluated, goal, docking.arrival_radius)
-    if not survival > docking.min_survival:
+    if survival > docking.min_survival:
+        return evaluated, (f"docked: the goal is {distance:.2f} m away, within the docking "
+                           f"radius {radius:g} m; {how} ({_survived(step, survival, config)})")
+    passing = []
+    for target in region_targets(state, goal, goal_tolerance, config):
+        candidate, how = approach(evaluator, target, config)
+        step, reached = arrival_survival(candidate, target, docking.arrival_radius)
+        if reached > docking.min_survival:
+            passing.append((float(candidate.costs.total[0]), candidate, how, step, reached,
+                            target))
+    if not passing:
         return None
+    _, candidate, how, step, reached, target = min(passing, key=lambda entry: entry[0])
+    off = math.hypot(target[0] - goal[0], target[1] - goal[1])
+    return candidate, (f"docked within the goal's tolerance {goal_tolerance:g} m: the goal "
+                       f"point's survivability until arrival is {survival:.2f}, not above "
+                       f"{docking.min_survival:g}; the cheapest of {len(passing)} passing points "
+                       f"{off:.2f} m from it; {how} ({_survived(step, reached, config)})")
+
+
+def _survived(step, survival, config: PlannerConfig) -> str:
     until = "the horizon's end" if step is None else f"arrival (step {step})"
-    return evaluated, (f"docked: the goal is {distance:.2f} m away, within the docking radius "
-                       f"{radius:g} m; {how} (survivability until {until} {survival:.2f} > "
-                       f"{docking.min_survival:g})")
+    return f"survivability until {until} {survival:.2f} > {config.docking.min_survival:g}"
 
 
-def turn_then_dock(evaluator: Evaluator, goal) -> Evaluation:
-    """The docking trajectory of a robot facing away from its goal (``docking.turn_in_place``):
-    :func:`turn_then_head` with that angle, costed by the exact cost of the evaluator's cycle
-    (the numpy reference, as the back-up rung's). Its ``z`` is the law's part, seen from where
-    the turn ends.
+def approach(evaluator: Evaluator, target, config: PlannerConfig) -> tuple:
+    """``(evaluation, how)``: the docking trajectory to the point ``target`` (the goal, or a
+    point of its region), costed by the exact cost of the evaluator's cycle (toward the
+    cycle's own goal): straight to it, or first turning in place when the line to it is more
+    than ``docking.turn_in_place`` off the heading."""
+    state = evaluator.cycle.state
+    limit = config.docking.turn_in_place
+    off = abs(float(off_the_line(state.pose, target)))
+    if 0.0 < limit < off:
+        return turn_then_dock(evaluator, target), (
+            f"turning in place first ({off:.2f} rad off the line to it, more than {limit:g}), "
+            "then heading straight to it")
+    return evaluator.evaluate(docking_z(state.pose, target, config)), "heading straight to it"
+
+
+def region_targets(state: RobotState, goal, goal_tolerance: float,
+                   config: PlannerConfig) -> list:
+    """The points of the goal's region that docking tries when the goal point fails
+    (``docking.region_points``): evenly round the circle of radius ``goal_tolerance -
+    docking.arrival_radius`` about ``goal``, the first on the line to the robot; none when
+    that radius is not positive, the count is 0 or the robot is farther than
+    ``docking.radius`` (IROS 2012's docking radius: the last metres)."""
+    docking = config.docking
+    ring = goal_tolerance - docking.arrival_radius
+    count = docking.region_points
+    if count == 0 or not ring > 0.0 or \
+            math.hypot(goal[0] - state.x, goal[1] - state.y) > docking.radius:
+        return []
+    toward = math.atan2(state.y - goal[1], state.x - goal[0])
+    return [(goal[0] + ring * math.cos(toward + 2.0 * math.pi * k / count),
+             goal[1] + ring * math.sin(toward + 2.0 * math.pi * k / count))
+            for k in range(count)]
+
+
+def turn_then_dock(evaluator: Evaluator, target) -> Evaluation:
+    """The docking trajectory of a robot facing away from the point ``target`` it docks at
+    (the goal, or a point of its region; ``docking.turn_in_place``): :func:`turn_then_head`
+    with that angle, costed by the exact cost of the evaluator's cycle (the numpy reference,
+    as the back-up rung's). Its ``z`` is the law's part, seen from where the turn ends.
 
     The law turns only along its curve, ``omega = kappa v``, and slows with the curvature, so
     close to a goal behind it the robot crawls round in a wide arc (0.04 m/s at 0.95 m from the
     goal in a replayed crowd, until the deadlock rule ended the run); a differential drive can
     turn where it stands."""
     cycle = evaluator.cycle
-    trajectory = turn_then_head(cycle.state, goal, cycle.config,
+    trajectory = turn_then_head(cycle.state, target, cycle.config,
                                 cycle.config.docking.turn_in_place)
     return Evaluation(trajectory.z, trajectory,
                       evaluate(trajectory, cycle.world, cycle.goal, cycle.config))

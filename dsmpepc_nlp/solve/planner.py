@@ -127,7 +127,7 @@ class Planner:
         self.stall.reset()
 
     def plan(self, state: RobotState, world: World, goal, *, dock: bool = True,
-             sample: bool = False) -> Plan:
+             sample: bool = False, goal_tolerance: float = 0.0) -> Plan:
         """Plan from ``state`` toward ``goal`` in ``world``.
 
         Parameters
@@ -144,6 +144,10 @@ class Planner:
         sample : bool
             Also run the sampler when the NLP or docking made the plan (for cross-checks and
             plots).
+        goal_tolerance : float
+            How near the goal counts as arrived, m (the task's; 0: the goal point). With
+            ``docking.region_points``, docking may head for a point that near the goal when
+            the way to the goal point itself is not safe enough (:func:`.docking.dock`).
 
         Returns
         -------
@@ -154,8 +158,9 @@ class Planner:
         Raises
         ------
         InputError
-            Only for a ``goal`` that is not a finite (x, y) pair, or a ``state`` that is neither
-            a RobotState nor 3 or 5 finite numbers.
+            Only for a ``goal`` that is not a finite (x, y) pair, a ``goal_tolerance`` that is
+            not a finite number >= 0, or a ``state`` that is neither a RobotState nor 3 or 5
+            finite numbers.
 
         Warns
         -----
@@ -170,6 +175,7 @@ class Planner:
             raise InputError(f"goal = {goal!r}: must be a finite (x, y) pair") from None
         if goal.shape != (2,) or not np.all(np.isfinite(goal)):
             raise InputError(f"goal = {goal!r}: must be a finite (x, y) pair")
+        goal_tolerance = _tolerance(goal_tolerance)
         # Every stage runs inside the fallback chain: a stage that raises is reported in the
         # message and the next one takes over; the stop trajectory is the last resort.
         trouble = []
@@ -183,7 +189,7 @@ class Planner:
         self.last_evaluator = evaluator
         plan, evaluated, records = None, None, ()
         if dock and cycle is not None:
-            plan = self._try(trouble, "docking", self._dock, evaluator)
+            plan = self._try(trouble, "docking", self._dock, evaluator, goal_tolerance)
         compiling = ""
         if plan is None and self.nlp is not None and cycle is not None \
                 and self.compile == "background":
@@ -247,8 +253,8 @@ class Planner:
 
     # -- the pieces of plan() ---------------------------------------------------------------
 
-    def _dock(self, evaluator: Evaluator) -> Plan | None:
-        docked = docking.dock(evaluator, self.config)
+    def _dock(self, evaluator: Evaluator, goal_tolerance: float) -> Plan | None:
+        docked = docking.dock(evaluator, self.config, goal_tolerance)
         return None if docked is None else self._plan_from(docked[0], 0, "docked", True,
                                                            docked[1], 0, ())
 
@@ -341,3 +347,14 @@ def _control(trajectory: Trajectory, config: PlannerConfig) -> tuple:
 
 def _replace(obj, **changes):
     return dataclasses.replace(obj, **changes)
+
+
+def _tolerance(value) -> float:
+    """``plan``'s ``goal_tolerance`` as a float, or an InputError naming what is allowed."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = math.nan
+    if isinstance(value, bool) or not (math.isfinite(number) and number >= 0.0):
+        raise InputError(f"goal_tolerance = {value!r}: must be a finite number of metres >= 0")
+    return number

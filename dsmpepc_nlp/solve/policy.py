@@ -22,8 +22,9 @@ class PlanningPolicy(Protocol):
     config: PlannerConfig
 
     def plan(self, state: RobotState, world: World, goal, *, dock: bool = True,
-             sample: bool = False) -> Plan:
-        """The plan from ``state`` toward ``goal`` (a fixed goal docks when ``dock``)."""
+             sample: bool = False, goal_tolerance: float = 0.0) -> Plan:
+        """The plan from ``state`` toward ``goal`` (a fixed goal docks when ``dock``; the
+        task counts arrival within ``goal_tolerance`` m of it)."""
         ...
 
     def reset(self) -> None:
