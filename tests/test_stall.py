@@ -2,7 +2,9 @@
 arrival, and the stall monitor's ladder (docs/method.md sections 7.1 and 7.5)."""
 
 import dataclasses
+import math
 
+import numpy as np
 import pytest
 
 from dsmpepc_nlp.bench.params import configure
@@ -136,3 +138,80 @@ def test_every_benchmark_table_runs_and_records_its_preset_and_overrides():
         assert config.docking == PlannerConfig.paper("mpepc").docking
         assert config.stall.levels == (2 if settings.overrides else 0)
     assert "preset" not in crowdnav.CrowdNavSettings().meta()      # older tables still match
+
+
+def person_near_the_goal(y):
+    """A person standing ``y`` m beside a goal 3 m ahead of the robot (0.3 m radii both)."""
+    from dsmpepc_nlp.sim.types import Pedestrian
+
+    return Pedestrian(np.array([0.0]), np.array([[3.0, y]]), radius=0.3)
+
+
+def test_docking_tries_the_goals_region_only_when_the_goal_point_fails():
+    """A person 0.8 m beside the goal: at the goal point the bodies are 0.2 m apart and the
+    straight way there survives 0.61 (under 0.9); a point of the 0.3 m tolerance farther from
+    the person passes. Without a tolerance, without region points, or where the goal point
+    passes, docking is what it was."""
+    state, goal = RobotState(2.0, 0.0, 0.0), (3.0, 0.0)
+    world = World(obstacles=[DynamicObstacle.pedestrian((3.0, 0.8), (0.0, 0.0), 0.3)])
+    on = PlannerConfig(docking=DockingConfig(region_points=8))
+    off = PlannerConfig(docking=DockingConfig(region_points=0))
+
+    def docked(config, tolerance, where=world):
+        return docking.dock(Evaluator(Cycle.prepare(state, where, goal, config)), config,
+                            tolerance)
+
+    assert docked(off, 0.3) is None and docked(on, 0.0) is None and docked(on, 0.1) is None
+    evaluated, message = docked(on, 0.3)
+    assert "within the goal's tolerance 0.3 m" in message
+    poses = evaluated.trajectories.poses[0]
+    reach = np.hypot(poses[:, 0] - goal[0], poses[:, 1] - goal[1])
+    assert reach.min() <= 0.3                      # it arrives by the task's rule
+    arrived = int(np.argmax(reach <= 0.3))
+    assert evaluated.costs.survivability[0, arrived] > 0.9
+    assert poses[arrived, 1] < 0.0                 # on the side away from the person
+    # The goal point passes with the person 2 m away: the same trajectory either way.
+    clear = World(obstacles=[DynamicObstacle.pedestrian((3.0, 2.0), (0.0, 0.0), 0.3)])
+    with_region, without = docked(on, 0.3, clear), docked(off, 0.3, clear)
+    np.testing.assert_array_equal(with_region[0].z, without[0].z)
+    assert with_region[1] == without[1] and "within the goal's tolerance" not in without[1]
+
+
+def test_the_goals_region_is_tried_only_within_the_docking_radius():
+    config = PlannerConfig(docking=DockingConfig(region_points=8))
+    goal = (3.0, 0.0)
+    near = docking.region_targets(RobotState(1.5, 0.0, 0.0), goal, 0.3, config)
+    assert len(near) == 8
+    np.testing.assert_allclose(np.hypot(*(np.array(near) - goal).T), 0.2)
+    # the first point lies on the line to the robot
+    np.testing.assert_allclose(near[0], (2.8, 0.0), atol=1e-12)
+    assert docking.region_targets(RobotState(0.5, 0.0, 0.0), goal, 0.3, config) == []
+    assert docking.region_targets(RobotState(1.5, 0.0, 0.0), goal, 0.3,
+                                  PlannerConfig.paper()) == []
+
+
+@pytest.mark.parametrize("y", [0.7, 0.8])
+def test_a_person_beside_the_goal_keeps_the_robot_off_it_only_without_the_region(y):
+    """Closed loop: a person stands 0.7-0.8 m beside the goal, which is free (the bodies
+    would be 0.1-0.2 m apart at it). Docking only at the goal point, the robot never
+    arrives; docking within the task's 0.3 m tolerance, it does."""
+    from dsmpepc_nlp.sim.simulate import simulate
+    from dsmpepc_nlp.sim.types import Agent, FixedGoal, Scenario
+
+    scenario = Scenario("beside", (Agent("a", RobotState(0.0, 0.0, 0.0),
+                                         FixedGoal((3.0, 0.0), 0.3)),),
+                        pedestrians=(person_near_the_goal(y),), duration=15.0)
+    outcomes = {}
+    for points in (0, 8):
+        config = PlannerConfig(docking=DockingConfig(region_points=points))
+        episode = simulate(scenario, config, SolverConfig(method="sampling", n_samples=256),
+                           np.random.default_rng(0))
+        outcomes[points] = episode.outcomes[0]
+    assert outcomes == {0: "timeout", 8: "success"}
+
+
+@pytest.mark.parametrize("tolerance", [-0.1, math.nan, math.inf, "near", True])
+def test_plan_refuses_a_goal_tolerance_that_is_not_a_distance(tolerance):
+    planner = Planner(PlannerConfig(), SAMPLING)
+    with pytest.raises(InputError, match="goal_tolerance"):
+        planner.plan(RobotState(0.0, 0.0, 0.0), World(), (1.0, 0.0), goal_tolerance=tolerance)
