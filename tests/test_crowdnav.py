@@ -211,3 +211,13 @@ def test_visible_humans_react_to_the_robot_in_the_loop():
     assert not np.allclose(invisible.ped_positions[:n], visible.ped_positions[:n])
     # the humans logged in the episode are the crowd's
     assert np.allclose(visible.ped_positions[-1], crowd_v.at(visible.times[-1])[0])
+
+
+def test_set_robot_fields_reach_the_robot_that_drives():
+    """The simulator puts each agent's body in place of the configuration's robot, so a
+    ``--set robot.*`` pair must reach the scenario's body (it was silently dropped)."""
+    slow = cn.CrowdNavSettings(overrides=(("robot.v_limit", 0.5),))
+    scenario, *_ = cn.episode_scenario(slow, 0, 0)
+    assert scenario.agents[0].robot.v_limit == 0.5
+    default, *_ = cn.episode_scenario(cn.CrowdNavSettings(), 0, 0)
+    assert default.agents[0].robot.v_limit == 1.0

@@ -179,3 +179,17 @@ def test_contact_age_tells_a_pedestrian_who_appeared_beside_the_robot(tmp_path):
     summary = crowd_rows.summarise(rows)
     assert summary["at_fault_rate"] == pytest.approx(2 / 3)
     assert summary["at_fault_appeared_rate"] == pytest.approx(1 / 3)
+
+
+def test_set_robot_fields_reach_the_robot_that_drives(tmp_path):
+    """``--set robot.v_limit`` reaches the replay's robot body, which the simulator puts in
+    place of the configuration's robot; ``--v-limit`` stays the default it changes."""
+    write_recording(tmp_path / "data" / "toy" / "test" / "toy.txt")
+    settings = crowds.CrowdSettings(data=str(tmp_path / "data"), scene="toy", v_limit=0.8,
+                                    overrides=(("robot.omega_limit", 1.0),))
+    scenario, _ = crowds.episode_scenario(settings, 0, 0)
+    assert scenario.agents[0].robot.omega_limit == 1.0
+    assert scenario.agents[0].robot.v_limit == 0.8
+    slower = crowds.CrowdSettings(data=str(tmp_path / "data"), scene="toy",
+                                  overrides=(("robot.v_limit", 0.5),))
+    assert crowds.episode_scenario(slower, 0, 0)[0].agents[0].robot.v_limit == 0.5

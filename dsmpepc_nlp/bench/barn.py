@@ -39,7 +39,7 @@ from ..sim.metrics import episode_metrics
 from ..sim.simulate import simulate
 from ..sim.types import Agent, FixedGoal, Scenario
 from ..viz import figures
-from .params import config_meta, planner_config
+from .params import config_meta, planner_config, robot_with
 from .results import ResultTable, keep_failure
 from .runner import mean, outcome_rates, plan_time_summary, run_all
 
@@ -277,8 +277,7 @@ class BarnSettings:
     def config(self) -> PlannerConfig:
         """The variant under the preset with the Jackal body and the overrides."""
         config = planner_config(self, self.variant)
-        return replace(config, robot=replace(jackal_robot(self.v_limit), **{
-            k.split(".", 1)[1]: v for k, v in self.overrides if k.startswith("robot.")}))
+        return replace(config, robot=robot_with(jackal_robot(self.v_limit), self.overrides))
 
 
 def solver_config(name: str, n_samples: int | None = None) -> SolverConfig:

@@ -64,7 +64,7 @@ from ..solve.planner import Planner
 from .crowd_rows import measured_row, run_variants
 from .cv import CROWD_BASELINES, ConstantVelocityPlanner
 from .orca import OrcaPlanner, check_variants, require_pyrvo
-from .params import config_meta, planner_config
+from .params import config_meta, planner_config, robot_with
 from .results import ResultTable
 
 SCENES = ("circle", "square")
@@ -309,7 +309,7 @@ class CrowdNavSettings:
 def episode_scenario(settings: CrowdNavSettings, episode: int, seed: int, robot=None):
     """Episode ``episode`` of the seeded set (the same for every variant): the scenario, its
     crowd and the humans' starts and goals."""
-    robot = robot or RobotConfig()
+    robot = robot or robot_with(RobotConfig(), settings.overrides)
     rng = case_rng(seed, episode)
     draw = circle_crossing if settings.scene == "circle" else square_crossing
     starts, goals = draw(rng, settings.humans, robot.bounding_radius)

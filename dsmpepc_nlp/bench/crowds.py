@@ -32,7 +32,7 @@ from ..sim.types import Agent, FixedGoal, Pedestrian, Scenario
 from .crowd_rows import OFFSTAGE, contact_age, measured_row, run_variants
 from .cv import CROWD_BASELINES, ConstantVelocityPlanner
 from .orca import check_variants, simulate_orca
-from .params import config_meta, planner_config
+from .params import config_meta, planner_config, robot_with
 from .results import ResultTable
 
 FRAMES_PER_STEP = 10
@@ -281,7 +281,8 @@ def episode_scenario(settings: CrowdSettings, episode: int, seed: int):
     rng = np.random.default_rng([seed, episode])
     recording = load_recording(files[int(rng.integers(len(files)))])
     return crossing_scenario(recording, rng, duration=settings.duration,
-                             robot=RobotConfig(v_limit=settings.v_limit),
+                             robot=robot_with(RobotConfig(v_limit=settings.v_limit),
+                                              settings.overrides),
                              name=f"{settings.scene}-{seed}-{episode}",
                              goal_clear=settings.goal_clear)
 

@@ -65,6 +65,15 @@ def overrides(specs) -> tuple:
     return tuple((name, values[0]) for name, values in params.items())
 
 
+def robot_with(robot, pairs: tuple):
+    """``robot`` (a :class:`RobotConfig`: a benchmark's own body, which the simulator puts in
+    place of the configuration's) with the ``robot.*`` fields of the ``--set`` pairs replaced,
+    so that ``--set robot.v_limit=0.5`` reaches the robot that drives (validated by the
+    config)."""
+    fields = {name.split(".", 1)[1]: value for name, value in pairs if name.startswith("robot.")}
+    return dataclasses.replace(robot, **fields) if fields else robot
+
+
 def config_meta(preset: str, pairs: tuple) -> dict:
     """What a benchmark table stores of its configuration: the preset and the ``--set`` pairs,
     each only when given (tables written before either existed keep their meaning)."""
