@@ -215,3 +215,28 @@ def test_plan_refuses_a_goal_tolerance_that_is_not_a_distance(tolerance):
     planner = Planner(PlannerConfig(), SAMPLING)
     with pytest.raises(InputError, match="goal_tolerance"):
         planner.plan(RobotState(0.0, 0.0, 0.0), World(), (1.0, 0.0), goal_tolerance=tolerance)
+
+
+@pytest.mark.parametrize("heading, v", [(0.0, 0.0), (3.1, 0.0), (3.1, 0.6)])
+def test_the_regions_batches_are_the_one_by_one_approaches_to_the_bit(heading, v):
+    """Facing the goal; facing away (turns in place first), standing and moving away (the
+    turn brakes first, so the law starts elsewhere than the robot stands)."""
+    state, goal = RobotState(2.0, 0.0, heading, v, 0.0), (3.0, 0.0)
+    world = World(obstacles=[DynamicObstacle.pedestrian((3.0, 0.8), (0.0, 0.0), 0.3)])
+    config = PlannerConfig()
+    targets = docking.region_targets(state, goal, 0.3, config)
+    batched = docking.approaches(Evaluator(Cycle.prepare(state, world, goal, config)),
+                                 targets, config)
+    for target, (evaluation, how) in zip(targets, batched):
+        alone, alone_how = docking.approach(
+            Evaluator(Cycle.prepare(state, world, goal, config)), target, config)
+        assert how == alone_how
+        np.testing.assert_array_equal(evaluation.z, np.atleast_2d(alone.z))
+        np.testing.assert_array_equal(evaluation.trajectories.poses,
+                                      np.asarray(alone.trajectories.poses).reshape(
+                                          evaluation.trajectories.poses.shape))
+        np.testing.assert_array_equal(evaluation.costs.total, np.atleast_1d(alone.costs.total))
+        np.testing.assert_array_equal(evaluation.costs.survivability,
+                                      np.atleast_2d(alone.costs.survivability))
+    turned = [how.startswith("turning") for _, how in batched]
+    assert any(turned) if heading else not any(turned)

@@ -40,10 +40,10 @@ def dock(evaluator: Evaluator, config: PlannerConfig, goal_tolerance: float = 0.
         return evaluated, (f"docked: the goal is {distance:.2f} m away, within the docking "
                            f"radius {radius:g} m; {how} ({_survived(step, survival, config)})")
     passing = []
-    for target in region_targets(state, goal, goal_tolerance, config):
-        candidate, how = approach(evaluator, target, config)
+    targets = region_targets(state, goal, goal_tolerance, config)
+    for target, (candidate, how) in zip(targets, approaches(evaluator, targets, config)):
         step, reached = arrival_survival(candidate, target, docking.arrival_radius)
-        if reached > docking.min_survival:
+        if reached > docking.min_survival and math.isfinite(candidate.costs.total[0]):
             passing.append((float(candidate.costs.total[0]), candidate, how, step, reached,
                             target))
     if not passing:
@@ -74,6 +74,39 @@ def approach(evaluator: Evaluator, target, config: PlannerConfig) -> tuple:
             f"turning in place first ({off:.2f} rad off the line to it, more than {limit:g}), "
             "then heading straight to it")
     return evaluator.evaluate(docking_z(state.pose, target, config)), "heading straight to it"
+
+
+def approaches(evaluator: Evaluator, targets, config: PlannerConfig) -> list:
+    """:func:`approach` to each point of ``targets``, costed in two batches (those straight
+    ahead by the evaluator, those behind a turn in place by the numpy reference), not one by
+    one: the same rows (tested), a tenth of the time where the robot faces away."""
+    state = evaluator.cycle.state
+    limit = config.docking.turn_in_place
+    offs = [abs(float(off_the_line(state.pose, target))) for target in targets]
+    turning = [i for i, off in enumerate(offs) if 0.0 < limit < off]
+    straight = [i for i in range(len(targets)) if i not in turning]
+    found = {}
+    if straight:
+        evaluated = evaluator.evaluate(np.array([docking_z(state.pose, targets[i], config)
+                                                 for i in straight]))
+        found.update({i: (evaluated[[row]], "heading straight to it")
+                      for row, i in enumerate(straight)})
+    if turning:
+        cycle = evaluator.cycle
+        turnings = {sign: turn_in_place(state, config, sign) for sign in (1.0, -1.0)}
+        cuts = []
+        for i in turning:
+            spin, steps = turn_toward(state, targets[i], config, limit, turnings)
+            pose = spin.poses[min(max(int(steps), 1), config.horizon.n_steps - 1)]
+            heading = math.atan2(targets[i][1] - pose[1], targets[i][0] - pose[0])
+            cuts.append((spin, steps, (*targets[i], heading), config.robot.v_limit))
+        trajectories = turns_then_law(config, cuts, cycle.goal)
+        evaluated = Evaluation(trajectories.z, trajectories,
+                               evaluate(trajectories, cycle.world, cycle.goal, cycle.config))
+        found.update({i: (evaluated[[row]], (
+            f"turning in place first ({offs[i]:.2f} rad off the line to it, more than "
+            f"{limit:g}), then heading straight to it")) for row, i in enumerate(turning)})
+    return [found[i] for i in range(len(targets))]
 
 
 def region_targets(state: RobotState, goal, goal_tolerance: float,
