@@ -218,25 +218,34 @@ def test_plan_refuses_a_goal_tolerance_that_is_not_a_distance(tolerance):
 
 
 @pytest.mark.parametrize("heading, v", [(0.0, 0.0), (3.1, 0.0), (3.1, 0.6)])
-def test_the_regions_batches_are_the_one_by_one_approaches_to_the_bit(heading, v):
-    """Facing the goal; facing away (turns in place first), standing and moving away (the
-    turn brakes first, so the law starts elsewhere than the robot stands)."""
+def test_the_regions_batch_holds_each_approach_as_it_would_be_alone(heading, v):
+    """Facing the goal; facing away (each point behind a turn in place, the turns of
+    different lengths in one batch), standing and moving away (the turn brakes first, so the
+    law starts elsewhere than the robot stands): every row is the row of its point costed
+    alone, and a turned row heads for its point from where its turn ends."""
     state, goal = RobotState(2.0, 0.0, heading, v, 0.0), (3.0, 0.0)
     world = World(obstacles=[DynamicObstacle.pedestrian((3.0, 0.8), (0.0, 0.0), 0.3)])
     config = PlannerConfig()
     targets = docking.region_targets(state, goal, 0.3, config)
-    batched = docking.approaches(Evaluator(Cycle.prepare(state, world, goal, config)),
-                                 targets, config)
+
+    def approaches(points):
+        return docking.approaches(Evaluator(Cycle.prepare(state, world, goal, config)),
+                                  points, config)
+
+    batched = approaches(targets)
     for target, (evaluation, how) in zip(targets, batched):
-        alone, alone_how = docking.approach(
-            Evaluator(Cycle.prepare(state, world, goal, config)), target, config)
+        [(alone, alone_how)] = approaches([target])
         assert how == alone_how
-        np.testing.assert_array_equal(evaluation.z, np.atleast_2d(alone.z))
-        np.testing.assert_array_equal(evaluation.trajectories.poses,
-                                      np.asarray(alone.trajectories.poses).reshape(
-                                          evaluation.trajectories.poses.shape))
-        np.testing.assert_array_equal(evaluation.costs.total, np.atleast_1d(alone.costs.total))
-        np.testing.assert_array_equal(evaluation.costs.survivability,
-                                      np.atleast_2d(alone.costs.survivability))
+        for name in ("z", "trajectories.poses", "costs.total", "costs.survivability"):
+            first, attribute = name.partition(".")[::2] if "." in name else (name, "")
+            a, b = getattr(evaluation, first), getattr(alone, first)
+            if attribute:
+                a, b = getattr(a, attribute), getattr(b, attribute)
+            np.testing.assert_array_equal(a, b)
+        if how.startswith("turning"):
+            _, steps = docking.turn_toward(state, target, config, config.docking.turn_in_place)
+            np.testing.assert_array_equal(
+                evaluation.z[0], docking.docking_z(evaluation.trajectories.poses[0, steps],
+                                                   target, config))
     turned = [how.startswith("turning") for _, how in batched]
     assert any(turned) if heading else not any(turned)

@@ -22,8 +22,7 @@ from dataclasses import replace
 import numpy as np
 
 from dsmpepc_nlp.bench.crowds import CrowdSettings, episode_scenario
-from dsmpepc_nlp.bench.params import overrides, planner_config
-from dsmpepc_nlp.core.solver_config import SolverConfig
+from dsmpepc_nlp.bench.params import named_solver, overrides, planner_config
 from dsmpepc_nlp.sim.simulate import simulate
 from dsmpepc_nlp.solve.planner import Planner
 
@@ -40,9 +39,7 @@ def replay(settings: CrowdSettings, episode: int, seed: int) -> tuple:
             return plan
 
     scenario, _ = episode_scenario(settings, episode, seed)
-    solver = SolverConfig.named(settings.solver)
-    if settings.n_samples:
-        solver = replace(solver, n_samples=settings.n_samples)
+    solver = named_solver(settings.solver, settings.n_samples)
     run = simulate(scenario, planner_config(settings, "ds-mpepc"), solver,
                    np.random.default_rng([seed, episode]), planner_factory=Recording)
     return run, messages

@@ -33,13 +33,12 @@ import numpy as np
 
 from ..core.config import PlannerConfig, RobotConfig, RobotState
 from ..core.errors import InputError
-from ..core.solver_config import SolverConfig
 from ..core.world import OccupancyGrid
 from ..sim.metrics import episode_metrics
 from ..sim.simulate import simulate
 from ..sim.types import Agent, FixedGoal, Scenario
 from ..viz import figures
-from .params import config_meta, planner_config, robot_with
+from .params import config_meta, named_solver, planner_config, robot_with
 from .results import ResultTable, keep_failure
 from .runner import mean, outcome_rates, plan_time_summary, run_all
 
@@ -280,12 +279,6 @@ class BarnSettings:
         return replace(config, robot=robot_with(jackal_robot(self.v_limit), self.overrides))
 
 
-def solver_config(name: str, n_samples: int | None = None) -> SolverConfig:
-    """``SolverConfig.named(name)`` with an optional sample count."""
-    solver = SolverConfig.named(name)
-    return replace(solver, n_samples=n_samples) if n_samples else solver
-
-
 def run_world(index: int, settings: BarnSettings, out_dir=None) -> dict:
     """Run one world; the result row (never raises: an exception becomes ``outcome = error``).
     An unsuccessful run's episode is kept in ``out_dir`` (:func:`~.results.keep_failure`)."""
@@ -296,7 +289,7 @@ def run_world(index: int, settings: BarnSettings, out_dir=None) -> dict:
         config = settings.config()
         robot = config.robot
         episode = simulate(scenario(world, robot, settings.time_limit), config,
-                           solver_config(settings.solver, settings.n_samples),
+                           named_solver(settings.solver, settings.n_samples),
                            np.random.default_rng(index), record_trajectories=False)
         m = episode_metrics(episode)[0]
         success = m["outcome"] == "success"

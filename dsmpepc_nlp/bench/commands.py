@@ -31,7 +31,14 @@ from ..sim.simulate import simulate
 from ..viz import figures
 from . import barn, claims, crowdnav, crowds, sweep
 from .crosscheck import crosscheck
-from .params import PRESETS, overrides, parse_ipopt_options, parse_params, preset_config
+from .params import (
+    PRESETS,
+    named_solver,
+    overrides,
+    parse_ipopt_options,
+    parse_params,
+    preset_config,
+)
 from .results import parse_indices
 from .summary import summarised
 from .timing import run_bench
@@ -42,14 +49,14 @@ PLANNER_VARIANTS = tuple(VARIANTS)
 def solver_config(name: str, n_samples: int | None = None) -> SolverConfig:
     """``SolverConfig.named(name)`` (with ``n_samples`` for the sampler when given); an
     InputError when the NLP is asked and cannot be loaded."""
-    solver = SolverConfig.named(name)
+    solver = named_solver(name, n_samples)
     if solver.method != "sampling":
         try:
             from ..solve import nlp  # noqa: F401  (CasADi's IPOPT may be missing)
         except ImportError as exc:
             raise InputError(f"--solver {name}: the NLP solver is not available ({exc}); "
                              "use --solver sampling") from None
-    return dataclasses.replace(solver, n_samples=n_samples) if n_samples else solver
+    return solver
 
 
 # ---------------------------------------------------------------------------------------------

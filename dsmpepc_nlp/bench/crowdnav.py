@@ -64,7 +64,7 @@ from ..solve.planner import Planner
 from .crowd_rows import measured_row, run_variants
 from .cv import CROWD_BASELINES, ConstantVelocityPlanner
 from .orca import OrcaPlanner, check_variants, require_pyrvo
-from .params import config_meta, planner_config, robot_with
+from .params import config_meta, named_solver, planner_config, robot_with
 from .results import ResultTable
 
 SCENES = ("circle", "square")
@@ -340,9 +340,7 @@ def simulate_episode(settings: CrowdNavSettings, variant: str, episode: int, see
         solver = SolverConfig.sampling(n_samples=1)
     else:
         config, make = planner_config(settings, variant), Planner
-        solver = SolverConfig.named(settings.solver)
-        if settings.n_samples:
-            solver = dataclasses.replace(solver, n_samples=settings.n_samples)
+        solver = named_solver(settings.solver, settings.n_samples)
 
     def factory(loop_config, solver_config):
         planning = dataclasses.replace(loop_config, horizon=config.horizon)

@@ -19,7 +19,7 @@ scene (FORMAT.md). We rescale time: eth steps are taken as 0.8 s, which gives 1.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -32,7 +32,7 @@ from ..sim.types import Agent, FixedGoal, Pedestrian, Scenario
 from .crowd_rows import OFFSTAGE, contact_age, measured_row, run_variants
 from .cv import CROWD_BASELINES, ConstantVelocityPlanner
 from .orca import check_variants, simulate_orca
-from .params import config_meta, planner_config, robot_with
+from .params import config_meta, named_solver, planner_config, robot_with
 from .results import ResultTable
 
 FRAMES_PER_STEP = 10
@@ -301,10 +301,8 @@ def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int,
         if variant == "cv":
             return simulate(scenario, PlannerConfig(), SolverConfig.sampling(n_samples=1), rng,
                             planner_factory=ConstantVelocityPlanner, record_trajectories=False)
-        solver = SolverConfig.named(settings.solver)
-        if settings.n_samples:
-            solver = replace(solver, n_samples=settings.n_samples)
-        return simulate(scenario, planner_config(settings, variant), solver, rng,
+        return simulate(scenario, planner_config(settings, variant),
+                        named_solver(settings.solver, settings.n_samples), rng,
                         record_trajectories=False)
 
     return measured_row(row, run, lambda episode: {"contact_age": contact_age(episode)},

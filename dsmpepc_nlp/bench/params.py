@@ -14,6 +14,7 @@ import dataclasses
 
 from ..core.config import IROS_RAMP, PlannerConfig
 from ..core.errors import InputError
+from ..core.solver_config import SolverConfig
 
 SECTIONS = ("robot", "control_law", "horizon", "bounds", "cost", "smoothing", "docking",
             "stall")
@@ -63,6 +64,13 @@ def overrides(specs) -> tuple:
         if len(values) != 1:
             raise InputError(f"--set {name}: give one value, not {len(values)}")
     return tuple((name, values[0]) for name, values in params.items())
+
+
+def named_solver(name: str, n_samples: int | None = None):
+    """``SolverConfig.named(name)`` with ``n_samples`` replaced when given: the solver every
+    benchmark's ``--solver`` and ``--samples`` name."""
+    solver = SolverConfig.named(name)
+    return dataclasses.replace(solver, n_samples=n_samples) if n_samples else solver
 
 
 def robot_with(robot, pairs: tuple):

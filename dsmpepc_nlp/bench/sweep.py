@@ -22,13 +22,12 @@ from pathlib import Path
 import numpy as np
 
 from ..core.errors import InputError
-from ..core.solver_config import SolverConfig
 from ..sim.metrics import episode_metrics
 from ..sim.scenario import load_scenario
 from ..sim.simulate import simulate
 from ..viz import figures
 from .orca import check_variants, simulate_orca
-from .params import configure
+from .params import configure, named_solver
 from .results import ResultTable, keep_failure
 from .runner import mean, outcome_rates, plan_time_summary, run_all
 
@@ -87,9 +86,7 @@ def run_one(run: dict, settings: SweepSettings, out_dir=None) -> dict:
                                            duration=min(scenario.duration, settings.duration))
         if settings.start_noise is not None:
             scenario = dataclasses.replace(scenario, start_noise=settings.start_noise)
-        solver = SolverConfig.named(settings.solver)
-        if settings.n_samples:
-            solver = dataclasses.replace(solver, n_samples=settings.n_samples)
+        solver = named_solver(settings.solver, settings.n_samples)
         rng = np.random.default_rng(run["seed"])
         if variant == "orca":
             episode = simulate_orca(scenario, config, rng, record_trajectories=False)

@@ -34,7 +34,7 @@ def dock(evaluator: Evaluator, config: PlannerConfig, goal_tolerance: float = 0.
     radius = docking_radius(config)
     if distance > radius or distance == 0.0:
         return None
-    evaluated, how = approach(evaluator, goal, config)
+    [(evaluated, how)] = approaches(evaluator, [goal], config)
     step, survival = arrival_survival(evaluated, goal, docking.arrival_radius)
     if survival > docking.min_survival:
         return evaluated, (f"docked: the goal is {distance:.2f} m away, within the docking "
@@ -61,25 +61,19 @@ def _survived(step, survival, config: PlannerConfig) -> str:
     return f"survivability until {until} {survival:.2f} > {config.docking.min_survival:g}"
 
 
-def approach(evaluator: Evaluator, target, config: PlannerConfig) -> tuple:
-    """``(evaluation, how)``: the docking trajectory to the point ``target`` (the goal, or a
-    point of its region), costed by the exact cost of the evaluator's cycle (toward the
-    cycle's own goal): straight to it, or first turning in place when the line to it is more
-    than ``docking.turn_in_place`` off the heading."""
-    state = evaluator.cycle.state
-    limit = config.docking.turn_in_place
-    off = abs(float(off_the_line(state.pose, target)))
-    if 0.0 < limit < off:
-        return turn_then_dock(evaluator, target), (
-            f"turning in place first ({off:.2f} rad off the line to it, more than {limit:g}), "
-            "then heading straight to it")
-    return evaluator.evaluate(docking_z(state.pose, target, config)), "heading straight to it"
-
-
 def approaches(evaluator: Evaluator, targets, config: PlannerConfig) -> list:
-    """:func:`approach` to each point of ``targets``, costed in two batches (those straight
-    ahead by the evaluator, those behind a turn in place by the numpy reference), not one by
-    one: the same rows (tested), a tenth of the time where the robot faces away."""
+    """``(evaluation, how)`` for each point of ``targets`` (the goal, or the points of its
+    region): the docking trajectory to it, straight (the target pose on the point, facing
+    along the line of sight, at the speed limit: :func:`docking_z`), or, where the line to it
+    is more than ``docking.turn_in_place`` off the heading, first a turn in place toward it
+    (:func:`turn_toward`; a differential drive can turn where it stands, while the law turns
+    only along its curve and slows with the curvature, so near a goal behind it the robot
+    crawled round a wide arc: 0.04 m/s at 0.95 m from the goal in a replayed crowd, until
+    the deadlock rule ended the run) and the straight trajectory from where the turn ends. The
+    exact cost is the cycle's (toward its own goal), in two batches: the straight ones by the
+    evaluator, those behind a turn by the numpy reference (as the back-up rung's); each row
+    is the row it would be alone (tested). A turned row's ``z`` is the law's part, seen from
+    where the turn ends."""
     state = evaluator.cycle.state
     limit = config.docking.turn_in_place
     offs = [abs(float(off_the_line(state.pose, target))) for target in targets]
@@ -93,7 +87,8 @@ def approaches(evaluator: Evaluator, targets, config: PlannerConfig) -> list:
                       for row, i in enumerate(straight)})
     if turning:
         cycle = evaluator.cycle
-        turnings = {sign: turn_in_place(state, config, sign) for sign in (1.0, -1.0)}
+        turnings = {sign: turn_in_place(state, config, sign)      # only the ways needed
+                    for sign in {turn_sign(state.pose, targets[i]) for i in turning}}
         cuts = []
         for i in turning:
             spin, steps = turn_toward(state, targets[i], config, limit, turnings)
@@ -128,42 +123,13 @@ def region_targets(state: RobotState, goal, goal_tolerance: float,
             for k in range(count)]
 
 
-def turn_then_dock(evaluator: Evaluator, target) -> Evaluation:
-    """The docking trajectory of a robot facing away from the point ``target`` it docks at
-    (the goal, or a point of its region; ``docking.turn_in_place``): :func:`turn_then_head`
-    with that angle, costed by the exact cost of the evaluator's cycle (the numpy reference,
-    as the back-up rung's). Its ``z`` is the law's part, seen from where the turn ends.
-
-    The law turns only along its curve, ``omega = kappa v``, and slows with the curvature, so
-    close to a goal behind it the robot crawls round in a wide arc (0.04 m/s at 0.95 m from the
-    goal in a replayed crowd, until the deadlock rule ended the run); a differential drive can
-    turn where it stands."""
-    cycle = evaluator.cycle
-    trajectory = turn_then_head(cycle.state, target, cycle.config,
-                                cycle.config.docking.turn_in_place)
-    return Evaluation(trajectory.z, trajectory,
-                      evaluate(trajectory, cycle.world, cycle.goal, cycle.config))
-
-
-def turn_then_head(state: RobotState, goal, config: PlannerConfig, limit: float,
-                   target=None, v_max: float | None = None) -> Trajectory:
-    """Turn in place toward ``goal`` at the full turn rate (within the acceleration limits from
-    the measured command) until the line to it is within ``limit`` rad of the heading, then the
-    law from there over the rest of the horizon, a batch of one: toward the target pose
-    ``target`` at ``v_max`` when given, else the docking trajectory's (:func:`docking_z`: the
-    goal, facing along the line of sight, at the speed limit). Its ``z`` is the law's part,
-    seen from where the turn ends, and its target the law's (the next plan's warm start)."""
-    turning, steps = turn_toward(state, goal, config, limit)
-    return turns_then_law(config, [(turning, steps, target, v_max)], goal)
-
-
 def turn_toward(state: RobotState, goal, config: PlannerConfig, limit: float,
                 turnings=None) -> tuple:
     """``(turning, steps)``: the turn in place toward ``goal`` (:func:`turn_in_place`, taken
     from ``turnings`` by sign when given) and the plan periods after which the line to the
     goal is within ``limit`` rad of the heading (the horizon's last but one at the most)."""
     n = config.horizon.n_steps
-    sign = 1.0 if off_the_line(state.pose, goal) > 0 else -1.0
+    sign = turn_sign(state.pose, goal)
     turning = turn_in_place(state, config, sign) if turnings is None else turnings[sign]
     off = np.abs(off_the_line(turning.poses.T, goal))
     return turning, next((i for i in range(1, n) if off[i] <= limit), n - 1)
@@ -208,6 +174,11 @@ def turn_in_place(state: RobotState, config: PlannerConfig, sign: float) -> Traj
     command (one trajectory)."""
     return commanded(state, config, np.tile((0.0, sign * config.robot.omega_limit),
                                             (1, config.horizon.n_steps, 1)))[0]
+
+
+def turn_sign(pose, goal) -> float:
+    """Which way to turn in place toward ``goal``: 1.0 (left) or -1.0 (right)."""
+    return 1.0 if off_the_line(pose, goal) > 0 else -1.0
 
 
 def off_the_line(pose, goal):
