@@ -29,16 +29,9 @@ from ..core.solver_config import SOLVER_NAMES, LocalSolverSettings, SolverConfig
 from ..sim.scenario import load_scenario
 from ..sim.simulate import simulate
 from ..viz import figures
-from . import barn, claims, crowdnav, crowds, sweep
+from . import barn, claims, crowdnav, crowds, params, sweep
 from .crosscheck import crosscheck
-from .params import (
-    PRESETS,
-    named_solver,
-    overrides,
-    parse_ipopt_options,
-    parse_params,
-    preset_config,
-)
+from .params import PRESETS, overrides, parse_ipopt_options, parse_params, preset_config
 from .results import parse_indices
 from .summary import summarised
 from .timing import run_bench
@@ -49,7 +42,7 @@ PLANNER_VARIANTS = tuple(VARIANTS)
 def solver_config(name: str, n_samples: int | None = None) -> SolverConfig:
     """``SolverConfig.named(name)`` (with ``n_samples`` for the sampler when given); an
     InputError when the NLP is asked and cannot be loaded."""
-    solver = named_solver(name, n_samples)
+    solver = params.named_solver(name, n_samples)
     if solver.method != "sampling":
         try:
             from ..solve import nlp  # noqa: F401  (CasADi's IPOPT may be missing)
