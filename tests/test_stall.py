@@ -190,6 +190,29 @@ def test_the_goals_region_is_tried_only_within_the_docking_radius():
                                   PlannerConfig.paper()) == []
 
 
+@pytest.mark.parametrize("heading", [0.0, 3.1])
+def test_region_turns_off_docks_only_at_points_ahead(heading):
+    """``docking.region_turns`` = False: facing the goal, the region's plan is the one docking
+    makes with turns allowed (it needs none); facing away, every region point lies behind a
+    turn in place, none is tried and docking gives way (None) where it turned before."""
+    state, goal = RobotState(2.0, 0.0, heading), (3.0, 0.0)
+    world = World(obstacles=[DynamicObstacle.pedestrian((3.0, 0.8), (0.0, 0.0), 0.3)])
+    turns, straight = (PlannerConfig(docking=DockingConfig(region_turns=allowed))
+                       for allowed in (True, False))
+
+    def docked(config):
+        return docking.dock(Evaluator(Cycle.prepare(state, world, goal, config)), config, 0.3)
+
+    with_turns, without = docked(turns), docked(straight)
+    if heading == 0.0:
+        np.testing.assert_array_equal(with_turns[0].z, without[0].z)
+        assert with_turns[1] == without[1] and "turning" not in without[1]
+    else:
+        assert "turning in place first" in with_turns[1] and without is None
+    with pytest.raises(InputError, match="region_turns"):
+        DockingConfig(region_turns="no")
+
+
 @pytest.mark.parametrize("y", [0.7, 0.8])
 def test_a_person_beside_the_goal_keeps_the_robot_off_it_only_without_the_region(y):
     """Closed loop: a person stands 0.7-0.8 m beside the goal, which is free (the bodies

@@ -63,13 +63,19 @@ class DockingConfig:
     radius (docs/method.md section 7.1). On by default since the tuning episodes (CrowdNav
     seed 1, circle and square invisible; ETH/UCY eth and hotel): 3 won, 0 lost, collisions
     unchanged (docs/results.md)."""
+    region_turns: bool = True
+    """With ``region_points``: whether a point of the goal's region that lies more than
+    ``turn_in_place`` off the heading may be docked at (after a turn in place toward it). A
+    region point is tried only when the goal point failed, that is with somebody near the goal,
+    and a turn in place holds the robot still for 0.5-2 s among them; False tries only
+    the region points the robot can head to straight (docs/method.md section 7.1)."""
 
     def __post_init__(self):
         check_integers(self, {"region_points": 0})
         validate_fields(self, {"radius": dict(low=0.0), "min_survival": dict(low=0.0, high=1.0),
                                 "arrival_radius": dict(low=0.0),
                                 "turn_in_place": dict(low=0.0, high=math.pi)})
-        check_booleans(self, ("radius_from_reach", "follow"))
+        check_booleans(self, ("radius_from_reach", "follow", "region_turns"))
 
 
 @dataclass(frozen=True)

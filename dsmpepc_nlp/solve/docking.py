@@ -41,6 +41,10 @@ def dock(evaluator: Evaluator, config: PlannerConfig, goal_tolerance: float = 0.
                            f"radius {radius:g} m; {how} ({_survived(step, survival, config)})")
     passing = []
     targets = region_targets(state, goal, goal_tolerance, config)
+    limit = docking.turn_in_place
+    if not docking.region_turns and limit > 0.0:
+        targets = [target for target in targets
+                   if abs(float(off_the_line(state.pose, target))) <= limit]
     for target, (candidate, how) in zip(targets, approaches(evaluator, targets, config)):
         step, reached = arrival_survival(candidate, target, docking.arrival_radius)
         if reached > docking.min_survival and math.isfinite(candidate.costs.total[0]):
