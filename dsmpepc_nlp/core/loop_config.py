@@ -68,7 +68,8 @@ class DockingConfig:
     ``turn_in_place`` off the heading may be docked at (after a turn in place toward it). A
     region point is tried only when the goal point failed, that is with somebody near the goal,
     and a turn in place holds the robot still for 0.5-2 s among them; False tries only
-    the region points the robot can head to straight (docs/method.md section 7.1)."""
+    the region points the robot can head to straight (docs/method.md section 7.1). Left on:
+    on the tuning episodes False changed no run (docs/results.md)."""
 
     def __post_init__(self):
         check_integers(self, {"region_points": 0})
