@@ -185,6 +185,31 @@ def test_a_moving_goal_reuses_the_maps_free_cells_and_gets_the_same_values():
     assert not np.array_equal(values[0], values[2])
 
 
+def test_a_moving_goal_reuses_the_fill_of_unreached_cells_only_while_they_are_the_same():
+    """A map with a closed room: goals outside it leave the same cells unreached (the walls,
+    the room), so the second build fills them from the kept transform; a goal inside the room
+    leaves others unreached and the fill is made anew. Every build equals a fresh map's."""
+    from dsmpepc_nlp.core import navigation
+
+    def rooms():
+        occ = np.zeros((12, 12), dtype=bool)
+        occ[0:7, 5] = True
+        occ[7, 7:11] = occ[10, 7:11] = occ[7:11, 7] = occ[7:11, 10] = True   # room round 8-9
+        return OccupancyGrid(occ, 1.0)
+
+    grid = rooms()
+    fills = []
+    for goal in ([2.5, 2.5], [2.6, 2.8], [8.5, 8.5], [8.4, 8.6], [3.0, 2.0]):
+        values = NavigationFunction(goal, grid).values
+        np.testing.assert_array_equal(values, NavigationFunction(goal, rooms()).values)
+        window = navigation.navigation_window(grid, np.array(goal), 2.0)
+        fills.append(navigation._kept_window(grid, window, 0.0)[2]["last"])
+    assert fills[1] is fills[0] and fills[3] is fills[2] and fills[2] is not fills[1]
+    assert fills[4] is not fills[3] and np.array_equal(fills[4][0], fills[0][0])
+    inside, outside = (10, 10), (4, 4)     # map cells (8, 8), (2, 2); the window's margin is 2
+    assert not fills[0][0][inside] and fills[2][0][inside] and not fills[2][0][outside]
+
+
 def test_navigation_window_is_the_map_plus_margin_whatever_the_goal():
     grid = u_maze()
     inside = NavigationFunction([8.5, 1.5], grid, margin=2.0)

@@ -105,16 +105,40 @@ def _window_cells(grid, window, inflation_radius):
     goal, which moves every cycle, rebuilds the navigation function on the same window, and
     the mask's signed distance and the graph were most of that rebuild.
     """
+    return _kept_window(grid, window, inflation_radius)[:2]
+
+
+def _kept_window(grid, window, inflation_radius):
+    """``(free, cells, fills)`` of ``window``, kept on the map per (window, radius):
+    :func:`_window_cells`' two and a dict that :func:`_fill_unreached` keeps its last fill in."""
     kept = grid.__dict__.setdefault("_window_cells", OrderedDict())
     key = (window, inflation_radius)
     if key in kept:
         kept.move_to_end(key)
         return kept[key]
     free = _readonly(_free_cells(grid, window, inflation_radius))
-    kept[key] = free, _cell_graph(free, grid.resolution)
+    kept[key] = free, _cell_graph(free, grid.resolution), {}
     while len(kept) > WINDOW_CACHE_SIZE:
         kept.popitem(last=False)
     return kept[key]
+
+
+def _fill_unreached(dist, reached, res, fills=None):
+    """``dist`` with each unreached cell given the value of the nearest reached cell plus the
+    Euclidean distance to it. The nearest cells depend only on ``reached``, which a followed
+    goal seldom changes (the blocked cells and any pocket cut off from the goal), so with
+    ``fills`` (a window's dict, :func:`_kept_window`) the last distance transform is kept there
+    and reused while ``reached`` is the same: the same values, without the transform."""
+    last = None if fills is None else fills.get("last")
+    if last is not None and np.array_equal(last[0], reached):
+        _, gap, near_y, near_x = last
+    else:
+        from scipy import ndimage
+
+        gap, (near_y, near_x) = ndimage.distance_transform_edt(~reached, return_indices=True)
+        if fills is not None:
+            fills["last"] = (_readonly(reached.copy()), *map(_readonly, (gap, near_y, near_x)))
+    return np.where(reached, dist, dist[near_y, near_x] + gap * res)
 
 
 def _free_cells(grid, window, inflation_radius):
@@ -240,9 +264,9 @@ class NavigationFunction:
             window = navigation_window(grid, self.goal, margin, near, reach)
             self.working_grid = _crop(grid, window)
             self.values = _readonly(self._solve(
-                *_window_cells(grid, window, self.inflation_radius)))
+                *_kept_window(grid, window, self.inflation_radius)))
 
-    def _solve(self, free, cells):
+    def _solve(self, free, cells, fills=None):
         work = self.working_grid
         res = work.resolution
         ny, nx = work.shape
@@ -262,12 +286,7 @@ class NavigationFunction:
         dist = dijkstra(graph, directed=True, indices=ny * nx)[:-1].reshape(ny, nx) - res
 
         reached = np.isfinite(dist)
-        if reached.all():
-            return dist
-        from scipy import ndimage
-
-        gap, (near_y, near_x) = ndimage.distance_transform_edt(~reached, return_indices=True)
-        return np.where(reached, dist, dist[near_y, near_x] + gap * res)
+        return dist if reached.all() else _fill_unreached(dist, reached, res, fills)
 
     def _seeds(self, free, to_goal, index):
         """Flat indices of the Dijkstra's seeds (see the class notes)."""
