@@ -213,6 +213,36 @@ def test_region_turns_off_docks_only_at_points_ahead(heading):
         DockingConfig(region_turns="no")
 
 
+def test_arrival_at_tolerance_reads_survival_where_the_task_ends():
+    """``docking.arrival_at_tolerance``: the survivability is read where the way first comes
+    within the task's tolerance of the goal. A person 0.8 m beside the goal: the goal point's
+    way survives 0.61 to 0.1 m from it and more to 0.3 m (still under 0.9). A person 0.7 m
+    beside: no region point passes read at 0.1 m from it, one does read at the tolerance.
+    Without a tolerance above ``arrival_radius`` nothing changes; the paper preset keeps it
+    off."""
+    state, goal = RobotState(2.0, 0.0, 0.0), (3.0, 0.0)
+
+    def docked(y, flag, tolerance=0.3):
+        world = World(obstacles=[DynamicObstacle.pedestrian((3.0, y), (0.0, 0.0), 0.3)])
+        config = PlannerConfig(docking=DockingConfig(arrival_at_tolerance=flag))
+        return docking.dock(Evaluator(Cycle.prepare(state, world, goal, config)), config,
+                            tolerance)
+
+    def goal_point_survival(message):
+        return float(message.split("survivability until arrival is ")[1].split(",")[0])
+
+    assert goal_point_survival(docked(0.8, True)[1]) > goal_point_survival(
+        docked(0.8, False)[1]) + 0.1
+    assert docked(0.7, False) is None
+    evaluated, message = docked(0.7, True)
+    assert "within the goal's tolerance 0.3 m" in message
+    poses = evaluated.trajectories.poses[0]
+    near = np.hypot(poses[:, 0] - goal[0], poses[:, 1] - goal[1]) <= 0.3
+    assert evaluated.costs.survivability[0, int(np.argmax(near))] > 0.9
+    assert docked(0.7, True, tolerance=0.1) is None and docked(0.7, True, 0.0) is None
+    assert PlannerConfig.paper().docking.arrival_at_tolerance is False
+
+
 @pytest.mark.parametrize("y", [0.7, 0.8])
 def test_a_person_beside_the_goal_keeps_the_robot_off_it_only_without_the_region(y):
     """Closed loop: a person stands 0.7-0.8 m beside the goal, which is free (the bodies

@@ -35,7 +35,9 @@ def dock(evaluator: Evaluator, config: PlannerConfig, goal_tolerance: float = 0.
     if distance > radius or distance == 0.0:
         return None
     [(evaluated, how)] = approaches(evaluator, [goal], config)
-    step, survival = arrival_survival(evaluated, goal, docking.arrival_radius)
+    task = docking.arrival_at_tolerance and goal_tolerance > docking.arrival_radius
+    step, survival = arrival_survival(evaluated, goal, goal_tolerance if task else
+                                      docking.arrival_radius)
     if survival > docking.min_survival:
         return evaluated, (f"docked: the goal is {distance:.2f} m away, within the docking "
                            f"radius {radius:g} m; {how} ({_survived(step, survival, config)})")
@@ -46,7 +48,8 @@ def dock(evaluator: Evaluator, config: PlannerConfig, goal_tolerance: float = 0.
         targets = [target for target in targets
                    if abs(float(off_the_line(state.pose, target))) <= limit]
     for target, (candidate, how) in zip(targets, approaches(evaluator, targets, config)):
-        step, reached = arrival_survival(candidate, target, docking.arrival_radius)
+        step, reached = (arrival_survival(candidate, goal, goal_tolerance) if task else
+                         arrival_survival(candidate, target, docking.arrival_radius))
         if reached > docking.min_survival and math.isfinite(candidate.costs.total[0]):
             passing.append((float(candidate.costs.total[0]), candidate, how, step, reached,
                             target))
