@@ -270,9 +270,10 @@ class NavigationFunction:
         work = self.working_grid
         res = work.resolution
         ny, nx = work.shape
-        iy, ix = np.mgrid[0:ny, 0:nx]
-        centres = work.origin + res * (np.stack([ix, iy], axis=-1) + 0.5)
-        to_goal = np.hypot(*(centres - self.goal).transpose(2, 0, 1))
+        # The cell centres' offsets from the goal along each axis, broadcast (no grid of them).
+        dx = work.origin[0] + res * (np.arange(nx) + 0.5) - self.goal[0]
+        dy = work.origin[1] + res * (np.arange(ny) + 0.5) - self.goal[1]
+        to_goal = np.hypot(dx[None, :], dy[:, None])
         if not free.any():
             return to_goal
 
