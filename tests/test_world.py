@@ -170,11 +170,11 @@ def test_a_moving_goal_reuses_the_maps_free_cells_and_gets_the_same_values():
     goals = ([8.5, 1.5], [8.4, 1.7], [7.9, 2.6])
     values = [NavigationFunction(goal, grid, inflation_radius=0.3).values for goal in goals]
     window = navigation.navigation_window(grid, np.array(goals[0]), 2.0)
-    mask, cells = navigation._window_cells(grid, window, 0.3)
-    again = navigation._window_cells(grid, window, 0.3)
+    mask, cells = navigation._kept_window(grid, window, 0.3)[:2]
+    again = navigation._kept_window(grid, window, 0.3)
     assert again[0] is mask and again[1] is cells               # kept, not recomputed
     assert not mask.flags.writeable and not any(part.flags.writeable for part in cells)
-    wider, _ = navigation._window_cells(grid, window, 0.6)      # the radius is in the key
+    wider = navigation._kept_window(grid, window, 0.6)[0]      # the radius is in the key
     assert wider.sum() < mask.sum()
     indptr, indices, data = cells      # every free cell's edges, and only theirs
     assert indptr.size == mask.size + 1 and indices.size == data.size == indptr[-1]

@@ -97,20 +97,15 @@ WINDOW_CACHE_SIZE = 8
 least recently used dropped."""
 
 
-def _window_cells(grid, window, inflation_radius):
-    """``(free, cells)`` of ``window``: the free-cell mask (:func:`_free_cells`, (ny, nx) bool)
-    and the CSR parts of the graph between its free cells (:func:`_cell_graph`), read-only.
-
-    Neither depends on the goal, so both are kept on the map per (window, radius): a followed
-    goal, which moves every cycle, rebuilds the navigation function on the same window, and
-    the mask's signed distance and the graph were most of that rebuild.
-    """
-    return _kept_window(grid, window, inflation_radius)[:2]
-
-
 def _kept_window(grid, window, inflation_radius):
-    """``(free, cells, fills)`` of ``window``, kept on the map per (window, radius):
-    :func:`_window_cells`' two and a dict that :func:`_fill_unreached` keeps its last fill in."""
+    """``(free, cells, fills)`` of ``window``: the free-cell mask (:func:`_free_cells`, (ny, nx)
+    bool), the CSR parts of the graph between its free cells (:func:`_cell_graph`), both
+    read-only, and a dict that :func:`_fill_unreached` keeps its last fill in.
+
+    None of them depends on the goal, so all are kept on the map per (window, radius): a
+    followed goal, which moves every cycle, rebuilds the navigation function on the same
+    window, and the mask's signed distance and the graph were most of that rebuild.
+    """
     kept = grid.__dict__.setdefault("_window_cells", OrderedDict())
     key = (window, inflation_radius)
     if key in kept:

@@ -34,22 +34,24 @@ def dock(evaluator: Evaluator, config: PlannerConfig, goal_tolerance: float = 0.
     radius = docking_radius(config)
     if distance > radius or distance == 0.0:
         return None
-    [(evaluated, how)] = approaches(evaluator, [goal], config)
     task = docking.arrival_at_tolerance and goal_tolerance > docking.arrival_radius
-    step, survival = arrival_survival(evaluated, goal, goal_tolerance if task else
-                                      docking.arrival_radius)
+
+    def survival_until_arrival(evaluated, point):     # where the task ends, or near the point
+        return arrival_survival(evaluated, *((goal, goal_tolerance) if task else
+                                             (point, docking.arrival_radius)))
+
+    [(evaluated, how)] = approaches(evaluator, [goal], config)
+    step, survival = survival_until_arrival(evaluated, goal)
     if survival > docking.min_survival:
         return evaluated, (f"docked: the goal is {distance:.2f} m away, within the docking "
                            f"radius {radius:g} m; {how} ({_survived(step, survival, config)})")
     passing = []
     targets = region_targets(state, goal, goal_tolerance, config)
-    limit = docking.turn_in_place
-    if not docking.region_turns and limit > 0.0:
+    if not docking.region_turns:
         targets = [target for target in targets
-                   if abs(float(off_the_line(state.pose, target))) <= limit]
+                   if not needs_turn(state.pose, target, docking.turn_in_place)]
     for target, (candidate, how) in zip(targets, approaches(evaluator, targets, config)):
-        step, reached = (arrival_survival(candidate, goal, goal_tolerance) if task else
-                         arrival_survival(candidate, target, docking.arrival_radius))
+        step, reached = survival_until_arrival(candidate, target)
         if reached > docking.min_survival and math.isfinite(candidate.costs.total[0]):
             passing.append((float(candidate.costs.total[0]), candidate, how, step, reached,
                             target))
@@ -84,7 +86,7 @@ def approaches(evaluator: Evaluator, targets, config: PlannerConfig) -> list:
     state = evaluator.cycle.state
     limit = config.docking.turn_in_place
     offs = [abs(float(off_the_line(state.pose, target))) for target in targets]
-    turning = [i for i, off in enumerate(offs) if 0.0 < limit < off]
+    turning = [i for i, target in enumerate(targets) if needs_turn(state.pose, target, limit)]
     straight = [i for i in range(len(targets)) if i not in turning]
     found = {}
     if straight:
@@ -186,6 +188,12 @@ def turn_in_place(state: RobotState, config: PlannerConfig, sign: float) -> Traj
 def turn_sign(pose, goal) -> float:
     """Which way to turn in place toward ``goal``: 1.0 (left) or -1.0 (right)."""
     return 1.0 if off_the_line(pose, goal) > 0 else -1.0
+
+
+def needs_turn(pose, target, limit: float) -> bool:
+    """Whether docking at ``target`` from ``pose`` begins with a turn in place: the line to it
+    is more than ``limit`` (``docking.turn_in_place``, rad; 0: never) off the heading."""
+    return 0.0 < limit < abs(float(off_the_line(pose, target)))
 
 
 def off_the_line(pose, goal):
