@@ -175,6 +175,35 @@ def test_the_dodges_answer_only_a_blow_expected_within_dodge_within(monkeypatch)
     assert Planner(soon, solver).plan(state, behind, GOAL).status == "dodging"
 
 
+def test_a_docked_plan_is_read_for_threat_where_the_task_ends_with_threat_until_arrival():
+    """A person crosses the goal 2-3 s out, after the docked way has come within the task's
+    0.3 m of it (step 6, 1.2 s): docking passes it (survival 1.00 until arrival), and the gate,
+    reading the horizon's end (0.00), replaced it with a dodge. With
+    ``stall.threat_until_arrival`` the gate reads where docking read and the robot docks; a
+    followed goal (no tolerance: its task does not end on arrival) keeps the horizon's end."""
+    state, goal = RobotState(0.0, 0.0, 0.0, 0.5, 0.0), (1.2, 0.0)
+    crossing = World(obstacles=[DynamicObstacle.pedestrian((1.2, 3.0), (0.0, -1.0), 0.3)])
+    solver = SolverConfig.sampling(n_samples=256)
+    on = PlannerConfig()
+    until = dataclasses.replace(on, stall=dataclasses.replace(on.stall,
+                                                              threat_until_arrival=True))
+    assert not on.stall.threat_until_arrival
+    assert not PlannerConfig.paper().stall.threat_until_arrival
+    horizon_end = Planner(on, solver).plan(state, crossing, goal, goal_tolerance=0.3)
+    assert horizon_end.status == "dodging" and "it replaced: docked" in horizon_end.message
+    docked = Planner(until, solver).plan(state, crossing, goal, goal_tolerance=0.3)
+    assert docked.status == "docked", docked.message
+    assert docked.cost.survivability[-1] < 0.5 and backup.threatened(docked, until)
+    assert backup.arrival_time(docked, goal, 0.3, until) == pytest.approx(1.2)
+    assert not backup.threatened(docked, until, backup.arrival_time(docked, goal, 0.3, until))
+    assert backup.arrival_time(docked, goal, 0.3, on) == math.inf
+    assert backup.arrival_time(docked, goal, 0.0, until) == math.inf
+    followed = Planner(until, solver).plan(state, crossing, goal)
+    assert followed.status == "dodging", followed.message
+    with pytest.raises(InputError, match="threat_until_arrival"):
+        StallConfig(threat_until_arrival="yes")
+
+
 def test_a_robot_standing_at_its_goal_does_not_back_away_by_default():
     """What level 0 did (docs/results.md) and level 1 does not: the stall monitor never counts
     a robot at its goal as stalled, so the rung leaves it standing there."""

@@ -217,7 +217,8 @@ class PlannerConfig:
                                                     region_points=0,
                                                     arrival_at_tolerance=False))
         changes.setdefault("stall", StallConfig(levels=0, back_up=0.0, dodge=False,
-                                                  turn_to_goal=0.0))
+                                                  turn_to_goal=0.0,
+                                                  threat_until_arrival=False))
         changes.setdefault("control_law", ControlLawConfig(r_thresh_from_robot=False))
         return cls(anticipatory_pc=switches[0], terminal_cost=switches[1], cost=cost, **changes)
 

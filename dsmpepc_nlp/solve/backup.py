@@ -127,21 +127,35 @@ def _survival(plan: Plan, config: PlannerConfig, within: float = math.inf) -> fl
     return float(survival[min(steps, len(survival) - 1)])
 
 
-def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
+def arrival_time(plan: Plan, goal, goal_tolerance: float, config: PlannerConfig) -> float:
+    """s: when a docked ``plan`` first comes within ``goal_tolerance`` of a fixed ``goal``
+    with ``stall.threat_until_arrival`` (the task ends there); otherwise, or when it never
+    does, infinity (the gate reads the horizon's end)."""
+    if not (config.stall.threat_until_arrival and plan.status == "docked"
+            and goal_tolerance > 0.0):
+        return math.inf
+    poses = plan.trajectory.poses
+    near = np.hypot(poses[:, 0] - goal[0], poses[:, 1] - goal[1]) <= goal_tolerance
+    return float(np.argmax(near)) * config.horizon.dt if np.any(near) else math.inf
+
+
+def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) -> Plan | None:
     """The rung's plan, or None (keep ``plan``). With the rung on: reverse trajectories when
     the plan stands and the ladder is at ``back_up_level`` or above or the plan is
     :func:`threatened`; forward dodges (``stall.dodge``) when it is threatened, standing or
     not; turns in place (``stall.turn_to_goal``, :func:`turn_trajectories`) when the ladder
-    is at ``turn_level`` or above and the plan is not docked. The cheapest of them by the
-    exact cost replaces the plan if it is cheaper."""
+    is at ``turn_level`` or above and the plan is not docked. A docked plan's threat is read
+    at its :func:`arrival_time` (``goal_tolerance``: the fixed goal's, m). The cheapest of
+    them by the exact cost replaces the plan if it is cheaper."""
     config = cycle.config
     stall = config.stall
     if stall.back_up <= 0.0:
         return None
-    threat = threatened(plan, config)
+    arrival = arrival_time(plan, cycle.goal, goal_tolerance, config)
+    threat = threatened(plan, config, arrival)
     stalled = level >= stall.back_up_level
     reverse = stands(plan, config) and (stalled or threat)
-    dodge = stall.dodge and threatened(plan, config, stall.dodge_within)
+    dodge = stall.dodge and threatened(plan, config, min(stall.dodge_within, arrival))
     # A docked plan already heads for the goal, turning in place first where it must.
     turn = (level >= stall.turn_level and stall.turn_to_goal > 0.0
             and plan.status != "docked")
@@ -171,7 +185,7 @@ def consider(plan: Plan, state, cycle, level: int) -> Plan | None:
     elif kind == "reverse" and stalled:
         why = "stalled and the plan stood"
     else:
-        within = math.inf if kind == "reverse" else stall.dodge_within    # what its test read
+        within = arrival if kind == "reverse" else min(stall.dodge_within, arrival)  # as read
         soon = f" within {within:g} s" if within < config.horizon.duration else ""
         why = (f"the plan {'stood' if stands(plan, config) else 'went'} where it expects to be "
                f"struck{soon} (survival {_survival(plan, config, within):.2f} < "
