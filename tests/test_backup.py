@@ -184,19 +184,19 @@ def test_a_docked_plan_is_read_for_threat_where_the_task_ends_with_threat_until_
     state, goal = RobotState(0.0, 0.0, 0.0, 0.5, 0.0), (1.2, 0.0)
     crossing = World(obstacles=[DynamicObstacle.pedestrian((1.2, 3.0), (0.0, -1.0), 0.3)])
     solver = SolverConfig.sampling(n_samples=256)
-    on = PlannerConfig()
-    until = dataclasses.replace(on, stall=dataclasses.replace(on.stall,
-                                                              threat_until_arrival=True))
-    assert not on.stall.threat_until_arrival
+    until = PlannerConfig()
+    at_end = dataclasses.replace(until, stall=dataclasses.replace(until.stall,
+                                                              threat_until_arrival=False))
+    assert until.stall.threat_until_arrival
     assert not PlannerConfig.paper().stall.threat_until_arrival
-    horizon_end = Planner(on, solver).plan(state, crossing, goal, goal_tolerance=0.3)
+    horizon_end = Planner(at_end, solver).plan(state, crossing, goal, goal_tolerance=0.3)
     assert horizon_end.status == "dodging" and "it replaced: docked" in horizon_end.message
     docked = Planner(until, solver).plan(state, crossing, goal, goal_tolerance=0.3)
     assert docked.status == "docked", docked.message
     assert docked.cost.survivability[-1] < 0.5 and backup.threatened(docked, until)
     assert backup.arrival_time(docked, goal, 0.3, until) == pytest.approx(1.2)
     assert not backup.threatened(docked, until, backup.arrival_time(docked, goal, 0.3, until))
-    assert backup.arrival_time(docked, goal, 0.3, on) == math.inf
+    assert backup.arrival_time(docked, goal, 0.3, at_end) == math.inf
     assert backup.arrival_time(docked, goal, 0.0, until) == math.inf
     followed = Planner(until, solver).plan(state, crossing, goal)
     assert followed.status == "dodging", followed.message
