@@ -131,12 +131,10 @@ def arrival_time(plan: Plan, goal, goal_tolerance: float, config: PlannerConfig)
     """s: when a docked ``plan`` first comes within ``goal_tolerance`` of a fixed ``goal``
     with ``stall.threat_until_arrival`` (the task ends there); otherwise, or when it never
     does, infinity (the gate reads the horizon's end)."""
-    if not (config.stall.threat_until_arrival and plan.status == "docked"
-            and goal_tolerance > 0.0):
+    if not (config.stall.threat_until_arrival and plan.status == "docked"):
         return math.inf
-    poses = plan.trajectory.poses
-    near = np.hypot(poses[:, 0] - goal[0], poses[:, 1] - goal[1]) <= goal_tolerance
-    return float(np.argmax(near)) * config.horizon.dt if np.any(near) else math.inf
+    step = docking.arrival_step(plan.trajectory.poses, goal, goal_tolerance)
+    return math.inf if step is None else step * config.horizon.dt
 
 
 def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) -> Plan | None:

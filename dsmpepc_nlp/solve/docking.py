@@ -224,11 +224,15 @@ def arrival_survival(evaluated: Evaluation, goal, radius: float) -> tuple:
     within ``radius`` of ``goal``; ``(None, survivability at the horizon's end)`` when
     ``radius`` is 0 or the trajectory never comes that near."""
     survival = evaluated.costs.survivability[0]
-    if radius > 0.0:
-        poses = evaluated.trajectories.poses
-        poses = poses[0] if poses.ndim == 3 else poses
-        near = np.hypot(poses[:, 0] - goal[0], poses[:, 1] - goal[1]) <= radius
-        if np.any(near):
-            step = int(np.argmax(near))
-            return step, float(survival[step])
-    return None, float(survival[-1])
+    poses = evaluated.trajectories.poses
+    step = arrival_step(poses[0] if poses.ndim == 3 else poses, goal, radius)
+    return (None, float(survival[-1])) if step is None else (step, float(survival[step]))
+
+
+def arrival_step(poses, goal, radius: float) -> int | None:
+    """The first step of ``poses`` (one trajectory's, ``(N+1, 3)``) within ``radius`` of
+    ``goal``; None when ``radius`` is not positive or it never comes that near."""
+    if not radius > 0.0:
+        return None
+    near = np.hypot(poses[:, 0] - goal[0], poses[:, 1] - goal[1]) <= radius
+    return int(np.argmax(near)) if np.any(near) else None
