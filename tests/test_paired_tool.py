@@ -29,6 +29,23 @@ def test_discordant_cases_and_the_sign_test(tmp_path, capsys, tool):
     assert result["p"] == pytest.approx(0.625)           # 1 against 3 of 4: 2 * 5/16
     assert result["collisions_a"] == 1 and result["collisions_b"] == 0
     assert result["time_a"] == pytest.approx(10.0) and result["time_b"] == pytest.approx(12.25)
+    assert result["shared"] == 1 and result["sooner_b"] == result["later_b"] == 0
+
+
+def test_the_shared_successes_time_counts_only_cases_both_win(tmp_path, capsys, tool):
+    a = write(tmp_path / "a.csv", ["success", "success", "success", "timeout"],
+              times={0: 10.0, 1: 12.0, 2: 9.0})
+    b = write(tmp_path / "b.csv", ["success", "success", "collision", "success"],
+              times={0: 8.0, 1: 13.0, 3: 30.0})
+    paired = tool("paired")
+    result = paired.compare(paired.load(a, None), paired.load(b, None))
+    assert result["shared"] == 2 and result["sooner_b"] == 1 and result["later_b"] == 1
+    assert result["shared_time_a"] == pytest.approx(11.0)
+    assert result["shared_time_b"] == pytest.approx(10.5)
+    assert result["time_b"] == pytest.approx(17.0)              # all of B's successes
+    assert paired.main([a, b]) == 0
+    assert "2 shared successes: mean time A 11.00 s, B 10.50 s; B sooner in 1, later in 1" in \
+        capsys.readouterr().out
 
 
 def test_the_sign_test_is_exact_and_symmetric(tool):

@@ -4,8 +4,9 @@ Reads the ``.csv`` of two ``--out`` folders of the same benchmark (``dsmpepc ben
 ``crowd`` or ``crowdnav``) and pairs their rows by case (``world`` for BARN, ``episode``
 otherwise; one variant, the first in the table unless ``--variant``). Prints each table's
 success rate on the shared cases, the cases only A or only B succeeds in, the two-sided sign
-test on those, the collision count of each and the mean time of each table's successes
-(``time_to_goal``, or ``time`` where a table has none)::
+test on those, the collision count of each, the mean time of each table's successes
+(``time_to_goal``, or ``time`` where a table has none) and, over the cases both succeed in,
+each table's mean time and how many of them B ends sooner and later than A::
 
     python tools/paired.py BEFORE/crowdnav.csv AFTER/crowdnav.csv
     python tools/paired.py BEFORE/barn.csv AFTER/barn.csv --json
@@ -42,14 +43,29 @@ def load(path: str, variant: str | None) -> dict:
     return {row[key]: row for row in rows if row.get("variant") == variant}
 
 
+def _time(row: dict) -> float | None:
+    """A successful row's time (``time_to_goal``, else ``time``); None otherwise."""
+    value = row.get("time_to_goal") or row.get("time")
+    return float(value) if row["outcome"] == "success" and value else None
+
+
+def _mean(values: list) -> float:
+    return sum(values) / len(values) if values else math.nan
+
+
 def _mean_time(table: dict, cases) -> float:
-    times = []
-    for case in cases:
-        row = table[case]
-        value = row.get("time_to_goal") or row.get("time")
-        if row["outcome"] == "success" and value:
-            times.append(float(value))
-    return sum(times) / len(times) if times else math.nan
+    return _mean([t for t in (_time(table[case]) for case in cases) if t is not None])
+
+
+def _shared_times(a: dict, b: dict, cases) -> dict:
+    """Over the cases both tables succeed in: each one's mean time and how many B ends
+    sooner and later than A."""
+    pairs = [(_time(a[c]), _time(b[c])) for c in cases]
+    pairs = [(ta, tb) for ta, tb in pairs if ta is not None and tb is not None]
+    return {"shared": len(pairs), "shared_time_a": _mean([ta for ta, _ in pairs]),
+            "shared_time_b": _mean([tb for _, tb in pairs]),
+            "sooner_b": sum(tb < ta for ta, tb in pairs),
+            "later_b": sum(tb > ta for ta, tb in pairs)}
 
 
 def compare(a: dict, b: dict) -> dict:
@@ -67,7 +83,8 @@ def compare(a: dict, b: dict) -> dict:
             "success_a": len(won["a"]) / len(cases), "success_b": len(won["b"]) / len(cases),
             "only_a": only_a, "only_b": only_b, "p": sign_test(len(only_a), len(only_b)),
             "collisions_a": collisions["a"], "collisions_b": collisions["b"],
-            "time_a": _mean_time(a, cases), "time_b": _mean_time(b, cases)}
+            "time_a": _mean_time(a, cases), "time_b": _mean_time(b, cases),
+            **_shared_times(a, b, cases)}
 
 
 def main(argv=None) -> int:
@@ -87,6 +104,9 @@ def main(argv=None) -> int:
           f"{len(result['only_b'])} (sign test p = {result['p']:.3g}); collisions A "
           f"{result['collisions_a']}, B {result['collisions_b']}; mean time of successes A "
           f"{result['time_a']:.2f} s, B {result['time_b']:.2f} s")
+    print(f"{result['shared']} shared successes: mean time A {result['shared_time_a']:.2f} s, "
+          f"B {result['shared_time_b']:.2f} s; B sooner in {result['sooner_b']}, later in "
+          f"{result['later_b']}")
     print("only A:", " ".join(result["only_a"]) or "-")
     print("only B:", " ".join(result["only_b"]) or "-")
     return 0
