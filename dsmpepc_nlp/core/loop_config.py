@@ -133,9 +133,10 @@ class StallConfig:
     back_up_threat: float = 0.5
     """Below ``back_up_level`` too, the rung acts on a plan that would stand where the robot
     expects to be struck: its survival to the horizon's end (the exact cost's ``p^s_N``; a
-    docked plan's where the task ends, ``threat_until_arrival``) is below this; 0 turns it off. A person walking at a standing robot (CrowdNav's invisible
-    robot, a replayed crowd) makes every forward way out cost as much as the wait, since the
-    law cannot turn without first closing the gap; a reverse can open it. 0.5, "more likely
+    docked plan's where the task ends, ``threat_until_arrival``) is below this; 0 turns it
+    off. A person walking at a standing robot (CrowdNav's invisible robot, a replayed crowd)
+    makes every forward way out cost as much as the wait, since the law cannot turn without
+    first closing the gap; a reverse can open it. 0.5, "more likely
     struck than not", was set before any run (ours); on by default since the tuning episodes
     (CrowdNav seed 1, ETH/UCY eth and hotel): 10 won, 2 lost (docs/results.md)."""
 
