@@ -27,7 +27,8 @@ def dock(evaluator: Evaluator, config: PlannerConfig, goal_tolerance: float = 0.
     (until arrival, see :func:`arrival_survival`) is above ``min_survival``; else, with
     ``docking.region_points`` and a ``goal_tolerance`` (m, the task's) above the arrival
     radius, the cheapest passing trajectory to a point of the goal's region
-    (:func:`region_targets`); else None."""
+    (:func:`region_targets`); else, with ``docking.curves``, the cheapest passing trajectory
+    that arrives at the goal along one of the law's curves (:func:`curve_z`); else None."""
     state, goal = evaluator.cycle.state, evaluator.cycle.goal
     docking = config.docking
     distance = math.hypot(goal[0] - state.x, goal[1] - state.y)
@@ -40,29 +41,65 @@ def dock(evaluator: Evaluator, config: PlannerConfig, goal_tolerance: float = 0.
         return arrival_survival(evaluated, *((goal, goal_tolerance) if task else
                                              (point, docking.arrival_radius)))
 
+    def cheapest(candidates, arriving=False):     # (evaluation, how, target) each
+        passing = []
+        for candidate, how, target in candidates:
+            step, reached = survival_until_arrival(candidate, target)
+            if reached > docking.min_survival and math.isfinite(candidate.costs.total[0]) \
+                    and not (arriving and step is None):
+                passing.append((float(candidate.costs.total[0]), candidate, how, step,
+                                reached, target))
+        return (len(passing), min(passing, key=lambda entry: entry[0])) if passing else None
+
     [(evaluated, how)] = approaches(evaluator, [goal], config)
     step, survival = survival_until_arrival(evaluated, goal)
     if survival > docking.min_survival:
         return evaluated, (f"docked: the goal is {distance:.2f} m away, within the docking "
                            f"radius {radius:g} m; {how} ({_survived(step, survival, config)})")
-    passing = []
     targets = region_targets(state, goal, goal_tolerance, config)
     if not docking.region_turns:
         targets = [target for target in targets
                    if not needs_turn(state.pose, target, docking.turn_in_place)]
-    for target, (candidate, how) in zip(targets, approaches(evaluator, targets, config)):
-        step, reached = survival_until_arrival(candidate, target)
-        if reached > docking.min_survival and math.isfinite(candidate.costs.total[0]):
-            passing.append((float(candidate.costs.total[0]), candidate, how, step, reached,
-                            target))
-    if not passing:
+    found = cheapest((candidate, how, target) for target, (candidate, how)
+                     in zip(targets, approaches(evaluator, targets, config)))
+    if found is not None:
+        count, (_, candidate, how, step, reached, target) = found
+        off = math.hypot(target[0] - goal[0], target[1] - goal[1])
+        return candidate, (f"docked within the goal's tolerance {goal_tolerance:g} m: the goal "
+                           f"point's survivability until arrival is {survival:.2f}, not above "
+                           f"{docking.min_survival:g}; the cheapest of {count} passing points "
+                           f"{off:.2f} m from it; {how} ({_survived(step, reached, config)})")
+    zs = curve_z(state.pose, goal, config) if distance <= docking.radius else np.empty((0, 4))
+    if not len(zs):
         return None
-    _, candidate, how, step, reached, target = min(passing, key=lambda entry: entry[0])
-    off = math.hypot(target[0] - goal[0], target[1] - goal[1])
-    return candidate, (f"docked within the goal's tolerance {goal_tolerance:g} m: the goal "
-                       f"point's survivability until arrival is {survival:.2f}, not above "
-                       f"{docking.min_survival:g}; the cheapest of {len(passing)} passing points "
-                       f"{off:.2f} m from it; {how} ({_survived(step, reached, config)})")
+    curves = evaluator.evaluate(zs)
+    found = cheapest(((curves[[row]], f"its heading there {z[1]:+.2f} rad off the line of "
+                       "sight", goal) for row, z in enumerate(zs)), arriving=True)
+    if found is None:
+        return None
+    count, (_, candidate, how, step, reached, _) = found
+    return candidate, (f"docked along a curve: the straight way's survivability until arrival "
+                       f"is {survival:.2f}, not above {docking.min_survival:g}, and no point of "
+                       f"the goal's region passed; the cheapest of {count} passing curves to the "
+                       f"goal, {how} ({_survived(step, reached, config)})")
+
+
+def curve_z(pose, goal, config: PlannerConfig) -> np.ndarray:
+    """The z of the law's curves to ``goal`` that docking tries (``docking.curves``, (n, 4)):
+    the target pose on the goal, its heading turned from the line of sight by ``n`` angles
+    evenly across the box's ``theta`` range (0, the straight way, left out), at the speed
+    limit, from ``pose`` (no turn in place first)."""
+    count = config.docking.curves
+    if count == 0:
+        return np.empty((0, 4))
+    theta_max = config.bounds.theta_max
+    angles = np.concatenate([np.linspace(-theta_max, 0.0, count // 2, endpoint=False),
+                             -np.linspace(-theta_max, 0.0, count - count // 2,
+                                          endpoint=False)[::-1]])
+    straight = docking_z(pose, goal, config)
+    return clip_to_bounds(np.column_stack([np.full(count, straight[0]), angles,
+                                           np.full(count, straight[2]),
+                                           np.full(count, straight[3])]), config)
 
 
 def _survived(step, survival, config: PlannerConfig) -> str:
