@@ -35,11 +35,9 @@ def dock(evaluator: Evaluator, config: PlannerConfig, goal_tolerance: float = 0.
     radius = docking_radius(config)
     if distance > radius or distance == 0.0:
         return None
-    task = docking.arrival_at_tolerance and goal_tolerance > docking.arrival_radius
 
-    def survival_until_arrival(evaluated, point):     # where the task ends, or near the point
-        return arrival_survival(evaluated, *((goal, goal_tolerance) if task else
-                                             (point, docking.arrival_radius)))
+    def survival_until_arrival(evaluated, point):
+        return until_arrival(evaluated, point, goal, goal_tolerance, config)
 
     def cheapest(candidates, arriving=False):     # (evaluation, how, target) each
         passing = []
@@ -254,6 +252,19 @@ def docking_radius(config: PlannerConfig) -> float:
     ``docking.radius_from_reach`` is on."""
     docking = config.docking
     return max(docking.radius, config.reach) if docking.radius_from_reach else docking.radius
+
+
+def until_arrival(evaluated: Evaluation, point, goal, goal_tolerance: float,
+                  config: PlannerConfig) -> tuple:
+    """``(step, survivability)`` of a docking way to ``point`` (the goal or a point of its
+    region) as docking reads it: where the way first comes within the task's
+    ``goal_tolerance`` of ``goal`` (``docking.arrival_at_tolerance``, a tolerance above the
+    arrival radius), else within ``docking.arrival_radius`` of ``point``
+    (:func:`arrival_survival`)."""
+    docking = config.docking
+    task = docking.arrival_at_tolerance and goal_tolerance > docking.arrival_radius
+    return arrival_survival(evaluated, *((goal, goal_tolerance) if task else
+                                         (point, docking.arrival_radius)))
 
 
 def arrival_survival(evaluated: Evaluation, goal, radius: float) -> tuple:
