@@ -43,7 +43,7 @@ def test_sides_alternate_and_the_worktree_is_removed(tool, monkeypatch, tmp_path
     pairs = tool("bench_pairs")
     calls, git = [], []
 
-    def fake_bench(source, cycles, out, cwd):
+    def fake_bench(source, cycles, out, cwd, iterations=False):
         side = "this" if source == pairs.REPO else "base"
         calls.append((side, out.name))
         return run(20.0 if side == "base" else 22.0)
@@ -59,7 +59,7 @@ def test_sides_alternate_and_the_worktree_is_removed(tool, monkeypatch, tmp_path
     result = json.loads(capsys.readouterr().out)
     assert result["figures"]["default median, ms"]["pairs_ratio_median"] == pytest.approx(1.1)
 
-    def failing_bench(source, cycles, out, cwd):
+    def failing_bench(source, cycles, out, cwd, iterations=False):
         raise SystemExit("bench failed")
 
     git.clear()
@@ -67,3 +67,14 @@ def test_sides_alternate_and_the_worktree_is_removed(tool, monkeypatch, tmp_path
     with pytest.raises(SystemExit):
         pairs.main(["HEAD~1", "--pairs", "1", "--out", str(tmp_path)])
     assert git[-1][1] == "remove"
+
+
+def test_the_iteration_program_times_ipopt_on_this_checkout(tool, tmp_path):
+    """``--iterations``: the same program on both sides; here, on this checkout, two cycles."""
+    pairs = tool("bench_pairs")
+    result = pairs.bench(pairs.REPO, 2, tmp_path / "run.json", tmp_path, iterations=True)
+    assert json.loads((tmp_path / "run.json").read_text()) == result
+    assert 0.0 < result["default"]["ms_per_iteration"] < 1e3
+    assert result["default"]["iterations"] >= 1.0
+    summary = pairs.summarise([result], [result], pairs.ITERATION_FIGURES)
+    assert summary["default ms an iteration"]["pairs_ratio_median"] == pytest.approx(1.0)

@@ -19,6 +19,15 @@ sides' medians over the runs, the ratio of those medians, and the pairs' ratios 
 median, smallest, largest.
 Each side runs at its own defaults. How docs/results.md's "against the code the issue was filed
 on" table was measured.
+
+``--iterations`` times the IPOPT solves alone instead: each run is a fresh process of
+:data:`ITERATION_PROGRAM` (the same program on both sides, using only what every revision since
+the issue's has), which plans the demo cycles once to warm up, then with three fresh default
+planners, and reports IPOPT's own wall time an iteration (the solves' ``t_wall_total`` over
+their iterations, summed over the cycles; the median of the three planners) and the
+iterations a solve::
+
+    python tools/bench_pairs.py 932845c --pairs 6 --iterations
 """
 
 from __future__ import annotations
@@ -50,6 +59,39 @@ FIGURES = {
 }
 """Summary rows: a name and the key path into ``dsmpepc bench --json``'s object."""
 
+ITERATION_FIGURES = {
+    "default ms an iteration": ("default", "ms_per_iteration"),
+    "default iterations a solve": ("default", "iterations"),
+}
+"""Summary rows of ``--iterations``: the key paths into :data:`ITERATION_PROGRAM`'s object."""
+
+ITERATION_PROGRAM = """
+import json, os, statistics
+os.environ["DSMPEPC_COMPILE"] = "wait"
+from dsmpepc_nlp import Planner, PlannerConfig, SolverConfig
+from dsmpepc_nlp.bench.scenes import demo_cycles
+config = PlannerConfig()
+cycles = demo_cycles(config, CYCLES, 0)
+warm = Planner(config, SolverConfig())
+for state, world, goal in cycles:
+    warm.plan(state, world, goal, dock=False)
+per, its = [], []
+for _ in range(3):
+    planner = Planner(config, SolverConfig())
+    seconds = iterations = solves = 0
+    for state, world, goal in cycles:
+        planner.plan(state, world, goal, dock=False)
+        for stats in planner.nlp.last_stats:
+            seconds += stats["t_wall_total"]
+            iterations += stats["iter_count"]
+            solves += 1
+    per.append(1e3 * seconds / iterations)
+    its.append(iterations / solves)
+print(json.dumps({"default": {"ms_per_iteration": statistics.median(per),
+                              "iterations": statistics.median(its)}}))
+"""
+"""The program ``--iterations`` runs on each side (``CYCLES`` replaced by ``--cycles``)."""
+
 
 def figure(run: dict, path: tuple) -> float:
     """The number at ``path`` in one bench object (NaN where that version does not report it)."""
@@ -61,14 +103,14 @@ def figure(run: dict, path: tuple) -> float:
     return float(value) if isinstance(value, (int, float)) else float("nan")
 
 
-def summarise(base: list, this: list) -> dict:
-    """Per figure: both sides' medians over their runs, the ratio of the medians, and the
-    pairs' ratios (``this[k] / base[k]``) as median, min and max. ``base`` and ``this`` are
-    bench objects, pair k at index k."""
+def summarise(base: list, this: list, figures: dict = FIGURES) -> dict:
+    """Per figure of ``figures``: both sides' medians over their runs, the ratio of the
+    medians, and the pairs' ratios (``this[k] / base[k]``) as median, min and max. ``base`` and
+    ``this`` are bench objects, pair k at index k."""
     if len(base) != len(this) or not base:
         raise ValueError("base and this need the same number of runs, at least one")
     summary = {}
-    for name, path in FIGURES.items():
+    for name, path in figures.items():
         a = [figure(run, path) for run in base]
         b = [figure(run, path) for run in this]
         pairs = [y / x for x, y in zip(a, b) if x > 0 and not math.isnan(y)]
@@ -101,12 +143,14 @@ def table(summary: dict) -> str:
     return "\n".join(lines)
 
 
-def bench(source: Path, cycles: int, out: Path, cwd: Path) -> dict:
-    """One ``dsmpepc bench --json`` run of the package at ``source``; its object, also saved."""
+def bench(source: Path, cycles: int, out: Path, cwd: Path, iterations: bool = False) -> dict:
+    """One ``dsmpepc bench --json`` run of the package at ``source`` (with ``iterations``, one
+    of :data:`ITERATION_PROGRAM`); its object, also saved."""
     env = dict(os.environ, PYTHONPATH=str(source))
-    done = subprocess.run([sys.executable, "-m", "dsmpepc_nlp", "bench", "--cycles", str(cycles),
-                           "--json"], cwd=cwd, env=env, capture_output=True, text=True,
-                          check=False)
+    command = (["-c", ITERATION_PROGRAM.replace("CYCLES", str(int(cycles)))] if iterations
+               else ["-m", "dsmpepc_nlp", "bench", "--cycles", str(cycles), "--json"])
+    done = subprocess.run([sys.executable, *command], cwd=cwd, env=env, capture_output=True,
+                          text=True, check=False)
     if done.returncode != 0:
         raise SystemExit(f"bench failed for {source} (status {done.returncode}):\n"
                          f"{done.stderr[-2000:]}")
@@ -121,6 +165,8 @@ def main(argv=None) -> int:
     parser.add_argument("--cycles", type=int, default=20)
     parser.add_argument("--out", help="folder for each run's JSON (default: a temporary one)")
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+    parser.add_argument("--iterations", action="store_true",
+                        help="time IPOPT an iteration instead of whole plans")
     args = parser.parse_args(argv)
     if args.pairs < 1 or args.cycles < 1:
         parser.error("--pairs and --cycles must be at least 1")
@@ -133,17 +179,19 @@ def main(argv=None) -> int:
         try:
             sides = {"base": worktree, "this": REPO}
             for side, source in sides.items():
-                bench(source, args.cycles, out / f"{side}-warmup.json", Path(folder))
+                bench(source, args.cycles, out / f"{side}-warmup.json", Path(folder),
+                      args.iterations)
             runs = {"base": [], "this": []}
             for k in range(args.pairs):
                 order = ("base", "this") if k % 2 == 0 else ("this", "base")
                 for side in order:
                     runs[side].append(bench(sides[side], args.cycles, out / f"{side}-{k}.json",
-                                            Path(folder)))
+                                            Path(folder), args.iterations))
         finally:
             subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force",
                             str(worktree)], check=False, capture_output=True)
-    summary = summarise(runs["base"], runs["this"])
+    summary = summarise(runs["base"], runs["this"],
+                        ITERATION_FIGURES if args.iterations else FIGURES)
     if args.json:
         print(json.dumps({"base": args.base, "pairs": args.pairs, "out": str(out),
                           "figures": summary}, indent=1))
