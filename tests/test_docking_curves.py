@@ -72,6 +72,9 @@ def test_the_curves_span_the_boxs_theta_evenly_without_the_straight_way():
     straight = docking.docking_z(FACING_LEFT.pose, GOAL, config)
     np.testing.assert_allclose(zs[:, 1], [-1.0, -0.75, -0.5, -0.25, 0.25, 0.5, 0.75, 1.0])
     np.testing.assert_array_equal(zs[:, [0, 2, 3]], np.tile(straight[[0, 2, 3]], (8, 1)))
+    odd = PlannerConfig(docking=DockingConfig(curves=3))
+    np.testing.assert_allclose(docking.curve_z(FACING_LEFT.pose, GOAL, odd)[:, 1],
+                               [-1.0, 0.5, 1.0])            # the extra angle on the left
 
 
 @pytest.mark.parametrize("value", [-1, 1.5, True])

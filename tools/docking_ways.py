@@ -41,13 +41,13 @@ def ways(episode: Episode, cycle: int, config, tolerance: float) -> dict | None:
     if distance > docking.docking_radius(config) or distance == 0.0:
         return None
     evaluator = Evaluator(Cycle.prepare(state, episode.world_at(cycle), goal, config))
-    floor = config.docking.min_survival
 
     def read(evaluations, points, arriving=False):
-        readings = [docking.until_arrival(e, p, goal, tolerance, config)
+        readings = [(e, *docking.until_arrival(e, p, goal, tolerance, config))
                     for e, p in zip(evaluations, points)]
-        passing = [s for step, s in readings if s > floor and not (arriving and step is None)]
-        return {"best": max((s for _, s in readings), default=None), "passing": len(passing)}
+        passing = [e for e, step, s in readings
+                   if docking.passes(e, step, s, config, arriving)]
+        return {"best": max((s for _, _, s in readings), default=None), "passing": len(passing)}
 
     [(straight, how)] = docking.approaches(evaluator, [goal], config)
     row = {"cycle": cycle, "time": float(episode.times[cycle]), "distance": distance,

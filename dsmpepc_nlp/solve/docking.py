@@ -43,8 +43,7 @@ def dock(evaluator: Evaluator, config: PlannerConfig, goal_tolerance: float = 0.
         passing = []
         for candidate, how, target in candidates:
             step, reached = survival_until_arrival(candidate, target)
-            if reached > docking.min_survival and math.isfinite(candidate.costs.total[0]) \
-                    and not (arriving and step is None):
+            if passes(candidate, step, reached, config, arriving):
                 passing.append((float(candidate.costs.total[0]), candidate, how, step,
                                 reached, target))
         return (len(passing), min(passing, key=lambda entry: entry[0])) if passing else None
@@ -67,9 +66,9 @@ def dock(evaluator: Evaluator, config: PlannerConfig, goal_tolerance: float = 0.
                            f"point's survivability until arrival is {survival:.2f}, not above "
                            f"{docking.min_survival:g}; the cheapest of {count} passing points "
                            f"{off:.2f} m from it; {how} ({_survived(step, reached, config)})")
-    zs = curve_z(state.pose, goal, config) if distance <= docking.radius else np.empty((0, 4))
-    if not len(zs):
+    if docking.curves == 0 or distance > docking.radius:
         return None
+    zs = curve_z(state.pose, goal, config)
     curves = evaluator.evaluate(zs)
     found = cheapest(((curves[[row]], f"its heading there {z[1]:+.2f} rad off the line of "
                        "sight", goal) for row, z in enumerate(zs)), arriving=True)
@@ -85,19 +84,27 @@ def dock(evaluator: Evaluator, config: PlannerConfig, goal_tolerance: float = 0.
 def curve_z(pose, goal, config: PlannerConfig) -> np.ndarray:
     """The z of the law's curves to ``goal`` that docking tries (``docking.curves``, (n, 4)):
     the target pose on the goal, its heading turned from the line of sight by ``n`` angles
-    evenly across the box's ``theta`` range (0, the straight way, left out), at the speed
-    limit, from ``pose`` (no turn in place first)."""
-    count = config.docking.curves
-    if count == 0:
-        return np.empty((0, 4))
-    theta_max = config.bounds.theta_max
-    angles = np.concatenate([np.linspace(-theta_max, 0.0, count // 2, endpoint=False),
-                             -np.linspace(-theta_max, 0.0, count - count // 2,
-                                          endpoint=False)[::-1]])
-    straight = docking_z(pose, goal, config)
-    return clip_to_bounds(np.column_stack([np.full(count, straight[0]), angles,
-                                           np.full(count, straight[2]),
-                                           np.full(count, straight[3])]), config)
+    evenly across the box's ``theta`` range (0, the straight way, left out; an odd count's
+    extra angle on the left, positive side), at the speed limit, from ``pose`` (no turn in
+    place first)."""
+    count, theta_max = config.docking.curves, config.bounds.theta_max
+
+    def side(n):      # n angles evenly over (0, theta_max]
+        return theta_max * np.arange(1, n + 1) / max(n, 1)
+
+    zs = np.tile(docking_z(pose, goal, config), (count, 1))
+    zs[:, 1] = np.concatenate([-side(count // 2)[::-1], side(count - count // 2)])
+    return clip_to_bounds(zs, config)
+
+
+def passes(evaluated: Evaluation, step, survival: float, config: PlannerConfig,
+           arriving: bool = False) -> bool:
+    """Whether a docking way (the first row of ``evaluated``, read ``(step, survival)`` by
+    :func:`until_arrival`) passes docking's test: survivability above ``min_survival`` and a
+    finite exact cost; with ``arriving`` (the curves) it must also arrive within the horizon."""
+    return (survival > config.docking.min_survival
+            and math.isfinite(evaluated.costs.total[0])
+            and not (arriving and step is None))
 
 
 def _survived(step, survival, config: PlannerConfig) -> str:
