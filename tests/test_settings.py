@@ -3,6 +3,7 @@
 import dataclasses
 import math
 
+import casadi as ca
 import numpy as np
 import pytest
 
@@ -247,3 +248,32 @@ def test_long_generated_functions_are_compiled_lighter():
     assert out.count('optimize("O1")') == 1
     assert out.index('optimize("O1")') > out.index("casadi_f1") and out.endswith(long)
     assert csource.lighten(short + long, lines=100) == short + long
+
+
+def _operations(function) -> set:
+    """The CasADi operation codes an SX function runs."""
+    return {function.instruction_id(k) for k in range(function.n_instructions())}
+
+
+def test_a_centred_circle_is_not_rotated_and_an_offset_one_is():
+    """A circle's offset of 0 is structure (in the key), so the graph builds it in: the pose's
+    map query then reads no footprint offset and takes no sine or cosine of the heading (it
+    did, multiplying them by a parameter that was 0, a measurable share of a call), nor does
+    the pose's geometry read an offset; an offset circle rotates, and its graph still equals
+    the exact cost (the tests above)."""
+    from dsmpepc_nlp.solve.graph.pieces import pose_functions
+
+    trig = {ca.OP_SIN, ca.OP_COS}
+    centred = PlannerConfig()
+    assert all(cx == 0 and cy == 0 for cx, cy, _ in centred.robot.footprint)
+    query, geometry = pose_functions(centred, SIZES, None, True)
+    assert not trig & _operations(query)
+    index = {name: i for i, name in enumerate(settings.names(centred))}
+    for function in (query, geometry):
+        inputs = function.sx_in()
+        out = ca.vertcat(*(ca.vec(o) for o in function.call(inputs)))
+        for part in ("cx", "cy"):
+            assert not ca.depends_on(out, inputs[-1][index[f"footprint.0.{part}"]])
+    offset = dataclasses.replace(centred, robot=RobotConfig(footprint=((0.1, 0.0, 0.3),)))
+    query, _ = pose_functions(offset, SIZES, None, True)
+    assert trig <= _operations(query)

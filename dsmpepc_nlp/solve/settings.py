@@ -125,8 +125,9 @@ def symbolic(config: PlannerConfig, settings, smoothing: SmoothingConfig | None 
                 name = f"{section}.{field.name}"
                 object.__setattr__(mirror, field.name, entry(name, getattr(original, field.name)))
         sections[section] = mirror
-    footprint = tuple(tuple(settings[index[f"footprint.{i}.{part}"]] for part in FOOTPRINT)
-                      for i in range(len(config.robot.footprint)))
+    footprint = tuple(tuple(entry(f"footprint.{i}.{part}", value)
+                            for part, value in zip(FOOTPRINT, circle))
+                      for i, circle in enumerate(config.robot.footprint))
     object.__setattr__(sections["robot"], "footprint", footprint)
     # The switches as factors: on, the switch's own numbers (a * 1 and w * 1 are a and w to
     # the bit); off, the factor 1 - 0 * a * e = 1 and the terminal term 0 * raw = 0 exactly.
