@@ -491,3 +491,22 @@ def test_a_failing_compiler_is_tried_once_more_only_without_the_extra_options(tm
         calls.clear()
         assert compiled.compile_library(functions, "fails_b", flags=("-O1",)) is None
         assert calls == [("-O1",)]
+
+
+def test_the_far_branch_reads_only_what_is_differentiated():
+    """Where an object cannot matter the conditional's far branch is exactly 1 with a zero
+    derivative. In the solvers' graph (parameters fixed) it reads only the pose and speed, the
+    inputs whose adjoints the gradient carries, not the 37 settings, the circles or the
+    velocity (37 additions a call, on every far pose of every object); in the graph to embed
+    (nothing fixed) it reads every input."""
+    from dsmpepc_nlp.solve.graph.layout import resolved_sizes
+    from dsmpepc_nlp.solve.graph.pieces import object_function
+
+    sizes = resolved_sizes(CONFIG, g.GraphSizes(max_objects=3, table_cells=48, pose_objects=2))
+    for fixed, read in ((True, {0, 1}), (False, {0, 1, 2, 3, 4, 5})):
+        far = object_function(CONFIG, sizes, None, fixed).find_function("dsmpepc_object_far")
+        inputs = far.sx_in()
+        out = far.call(inputs)[0]
+        assert {i for i, x in enumerate(inputs) if ca.depends_on(out, x)} == read
+        values = [np.random.default_rng(i).uniform(-3, 3, x.shape) for i, x in enumerate(inputs)]
+        assert float(far(*values)) == 1.0

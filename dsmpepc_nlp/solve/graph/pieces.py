@@ -96,13 +96,17 @@ def object_function(config, sizes, smoothing, fixed=False):
     sigma = dynamic_sigma(k * config.horizon.dt, config.cost)
     kept = 1.0 - collision_probability(distance, inverse, sigma, config, smoothing, CASADI)
     inputs = [pose, speed, k, circles, velocity, q]
-    near = piece("dsmpepc_object_kept", inputs, [kept], fixed, (2, 3, 4, 5))
-    # Exactly 1 with a zero derivative, written so that it reads every input: its adjoint is
-    # then dense like the computation's, and the conditional's reverse mode writes it without
-    # projecting a structurally zero one, a measurable share of a gradient (docs/nlp.md).
+    parameters = (2, 3, 4, 5)
+    near = piece("dsmpepc_object_kept", inputs, [kept], fixed, parameters)
+    # Exactly 1 with a zero derivative, written so that it reads every differentiable input:
+    # its adjoint is then dense like the computation's, and the conditional's reverse mode
+    # writes it without projecting a structurally zero one, a measurable share of a gradient
+    # (docs/nlp.md). Inputs marked not differentiable have no adjoint, so it need not read
+    # them (the settings alone were 37 additions a call, on every far pose of every object).
+    read = [x for i, x in enumerate(inputs) if not (fixed and i in parameters)]
     far = piece("dsmpepc_object_far", inputs,
-                 [ca.fmax(1.0, -ca.fabs(ca.sum1(ca.vertcat(*(ca.vec(x) for x in inputs)))))],
-                 fixed, (2, 3, 4, 5))
+                 [ca.fmax(1.0, -ca.fabs(ca.sum1(ca.vertcat(*(ca.vec(x) for x in read)))))],
+                 fixed, parameters)
     # Index 0 (mask 0) is the far branch; any other index runs the default, the computation.
     return ca.Function.conditional("dsmpepc_object_if", [far], near)
 
