@@ -67,3 +67,19 @@ def test_without_valgrind_it_says_so(tool, monkeypatch, capsys):
     with pytest.raises(SystemExit):
         ci.main(["HEAD"])
     assert "valgrind is not installed" in capsys.readouterr().err
+
+
+def test_out_keeps_both_callgrind_files(tool, monkeypatch, tmp_path):
+    ci = tool("call_instructions")
+    monkeypatch.setattr(shutil, "which", lambda name: "/usr/bin/valgrind")
+    monkeypatch.setattr(ci.subprocess, "run", lambda *a, **k: None)
+
+    def fake_sides(sides, cycles, folder):
+        for side in sides:
+            (folder / f"{side}.callgrind").write_text(CALLGRIND)
+        return {side: ci.per_call(CALLGRIND) for side in sides}
+
+    monkeypatch.setattr(ci, "run_sides", fake_sides)
+    assert ci.main(["HEAD", "--out", str(tmp_path / "kept"), "--json"]) == 0
+    assert sorted(p.name for p in (tmp_path / "kept").iterdir()) == ["base.callgrind",
+                                                                     "this.callgrind"]

@@ -14,6 +14,12 @@ first ``--cycles`` cycles (docking off) with a default planner: the solves' call
 
     python tools/call_instructions.py 932845c
     python tools/call_instructions.py HEAD        # the same code both sides: 1.000
+    python tools/call_instructions.py 932845c --out /tmp/ci
+    callgrind_annotate /tmp/ci/base.callgrind; callgrind_annotate /tmp/ci/this.callgrind
+
+With ``--out`` the two callgrind files are kept, so that ``callgrind_annotate`` can say where
+each side's instructions go, function by function (how docs/results.md splits what is left
+between ``pow`` and the drivers).
 
 It prints, per side, the calls and instructions a call of the cost (F) and of the cost with
 its gradient (G), and the ratios this / base. valgrind must be installed (Debian:
@@ -140,6 +146,8 @@ def main(argv=None) -> int:
     parser.add_argument("--cycles", type=int, default=3,
                         help="plan the last of the demo's first CYCLES cycles (default 3)")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
+    parser.add_argument("--out", help="keep the callgrind files (base.callgrind, "
+                        "this.callgrind) in this folder")
     args = parser.parse_args(argv)
     if args.cycles < 1:
         parser.error("--cycles must be at least 1")
@@ -151,6 +159,10 @@ def main(argv=None) -> int:
                         args.base], check=True, capture_output=True)
         try:
             results = run_sides({"base": worktree, "this": REPO}, args.cycles, Path(folder))
+            if args.out:
+                Path(args.out).mkdir(parents=True, exist_ok=True)
+                for side in ("base", "this"):
+                    shutil.copy(Path(folder) / f"{side}.callgrind", Path(args.out))
         finally:
             subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force",
                             str(worktree)], check=False, capture_output=True)
