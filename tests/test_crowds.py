@@ -84,7 +84,42 @@ def test_goal_clear_redraws_a_goal_a_person_stands_on_and_keeps_every_other_draw
         if not crowds._occupied(first.pedestrians, plain["goal"], 19.0, 20.0, 0.2, 1.1):
             kept += 1
             assert clear == plain
+        if plain["goal"] == [5.0, 8.0]:  # on the person who stands there to the end
+            assert plain["goal_free_at"] is None
     assert near > 0 and kept > 0
+
+
+def test_goal_free_at_is_none_only_when_no_robot_could_stand_at_the_goal():
+    """The first time, no sooner than a straight run at the speed limit, at which nobody
+    covers the goal's tolerance disc for the footprint's circle; None when that never comes."""
+    from dsmpepc_nlp.sim.types import Pedestrian
+
+    start, goal = (0.0, 0.0), (4.0, 0.0)
+
+    def free_at(*peds):
+        return crowds.goal_free_at(list(peds), start, goal, 0.3, 0.3, 1.0, 10.0, 0.2)
+
+    def standing(until, at=goal):
+        return Pedestrian(np.array([0.0, until, until + 0.5]),
+                          np.array([at, at, (at[0], at[1] + 5.0)]))
+
+    assert free_at() == pytest.approx(3.8)               # (4 - 0.3) / 1 m/s, on the 0.2 s grid
+    assert free_at(standing(20.0)) is None               # there past the end: no planner wins
+    assert free_at(standing(2.0)) == pytest.approx(3.8)  # gone before the robot could arrive
+    assert 6.0 < free_at(standing(6.0)) <= 6.4           # the goal frees as the person leaves
+    # 0.35 m off the goal: the point of the tolerance disc farthest from them is 0.65 m away,
+    # past the two bodies' 0.6 m; at 0.25 m every point of it is within 0.55 m
+    assert free_at(standing(20.0, at=(4.0, 0.35))) == pytest.approx(3.8)
+    assert free_at(standing(20.0, at=(4.0, 0.25))) is None
+
+
+def test_summary_counts_the_runs_no_planner_can_win():
+    rows = [{"outcome": "deadlock", "goal_free_at": None},
+            {"outcome": "success", "goal_free_at": 4.2},
+            {"outcome": "success", "goal_free_at": 5.0},
+            {"outcome": "deadlock", "goal_free_at": 12.0}]
+    assert crowd_rows.summarise(rows)["goal_never_free_rate"] == 0.25
+    assert "goal_never_free_rate" not in crowd_rows.summarise([{"outcome": "success"}])
 
 
 def test_too_short_recording_is_an_error(tmp_path):

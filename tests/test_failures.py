@@ -309,6 +309,24 @@ def test_the_command_writes_report_and_figures(tmp_path, capsys):
     assert "| stalled-in-gap | 1 |" in (folder / "failures.md").read_text()
 
 
+def test_a_replay_row_says_which_goals_no_planner_could_reach(tmp_path, capsys):
+    """A crowd table's ``goal_free_at`` (None: covered from the earliest arrival to the end)
+    goes into each failure's evidence and the report counts the runs nobody could win."""
+    ped = np.tile([[[1.1, 0.0]]], (STALL, 1, 1))
+    on_goal = make_episode(standing(STALL), "deadlock", peds=ped, goal=(1.0, 0.0))
+    table = ResultTable(tmp_path, "crowd", ("episode",), {"benchmark": "crowd"})
+    for episode, free_at in ((0, None), (1, 12.4)):
+        table.add({"episode": episode, "outcome": "deadlock", "goal_free_at": free_at,
+                   "episode_file": keep_failure(on_goal, tmp_path, f"e{episode}")})
+    report = classify_folder(tmp_path)
+    assert [f["evidence"]["goal_free_at"] for f in report["failures"]] == [None, 12.4]
+    assert report["goal_never_free"] == 1
+    assert main(["failures", str(tmp_path), "--figures", "0"]) == 0
+    assert "goal never free (no planner could win): 1" in capsys.readouterr().out
+    assert "1 of them no planner could win" in (tmp_path / "failures.md").read_text()
+    assert "goal_never_free" not in classify_folder(_folder(tmp_path / "barn"))
+
+
 def test_the_command_refuses_a_folder_without_a_table(tmp_path, capsys):
     assert main(["failures", str(tmp_path)]) == 2
     assert "no benchmark table" in capsys.readouterr().err

@@ -79,7 +79,10 @@ def summarise(rows) -> dict:
     ``spl`` is the mean over all episodes (0 for a failure), ``time_to_goal`` over successes;
     plan times: :func:`~dsmpepc_nlp.bench.runner.plan_time_summary`. Replay only:
     ``at_fault_appeared_rate`` counts the at-fault collisions with a pedestrian on stage for
-    less than :data:`APPEARED` (``contact_age``).
+    less than :data:`APPEARED` (``contact_age``), and ``goal_never_free_rate`` the runs whose
+    goal a pedestrian covers from the robot's earliest possible arrival to the end
+    (``goal_free_at`` None: :func:`~dsmpepc_nlp.bench.crowds.goal_free_at`), which no planner
+    can win: ``1 - goal_never_free_rate`` bounds ``success_rate`` from above.
     """
     # A gap near OFFSTAGE means no pedestrian was on stage while the robot ran: not a distance.
     met = [r for r in rows if r.get("min_distance") is not None
@@ -100,7 +103,15 @@ def summarise(rows) -> dict:
             "min_distance_mean": mean(met, "min_distance"),
             "episodes_with_pedestrians": len(met),
             "min_distance": float(np.min(gaps)) if gaps else math.nan,
-            **plan_time_summary(rows)}
+            **plan_time_summary(rows), **_never_free(rows)}
+
+
+def _never_free(rows) -> dict:
+    """``goal_never_free_rate`` of replay rows (tables that record ``goal_free_at``), else {}."""
+    drawn = [r for r in rows if "goal_free_at" in r]
+    if not rows or len(drawn) < len(rows):
+        return {}
+    return {"goal_never_free_rate": sum(r["goal_free_at"] is None for r in drawn) / len(rows)}
 
 
 def run_variants(run_episode, settings, variants, episodes: int, seed: int, table, *, label,

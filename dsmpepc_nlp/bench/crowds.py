@@ -164,6 +164,30 @@ def _occupied(peds, point, start: float, end: float, dt: float, distance: float)
     return bool(near.size) and float(np.min(np.linalg.norm(near - point, axis=-1))) < distance
 
 
+def goal_free_at(peds, start, goal, tolerance: float, circle: float, v_limit: float,
+                 duration: float, dt: float) -> float | None:
+    """The first simulation time (s) at which a robot could stand at ``goal``, or None.
+
+    A robot arrives no sooner than ``(|goal - start| - tolerance) / v_limit`` (straight at its
+    speed limit; the replays have no map), and only at a time when no pedestrian covers every
+    point within ``tolerance`` of the goal for a footprint circle of radius ``circle``
+    (``|person - goal| + tolerance < r_person + circle``: the classifier's ``goal-occupied``
+    test). None when the goal is covered from that earliest arrival to ``duration``: no
+    planner can win the run.
+    """
+    earliest = max(0.0, (float(np.hypot(goal[0] - start[0], goal[1] - start[1])) - tolerance)
+                   / v_limit)
+    times = np.arange(0.0, duration + 1e-9, dt)
+    times = times[times >= earliest - 1e-9]
+    if not peds:
+        return float(times[0]) if times.size else None
+    at = np.array([[p.position(t) for p in peds] for t in times]).reshape(times.size, -1, 2)
+    radii = np.array([p.radius for p in peds])
+    d = np.linalg.norm(at - np.asarray(goal, dtype=float), axis=-1)
+    free = ~np.any(d + tolerance < radii + circle, axis=1)
+    return float(times[np.argmax(free)]) if free.any() else None
+
+
 def crossing_scenario(recording: Recording, rng: np.random.Generator, *,
                       duration=DEFAULT_DURATION, robot=None, dt=0.2, min_distance=4.0,
                       max_distance=8.0, start_clearance=0.5, goal_tolerance=0.3,
@@ -200,7 +224,8 @@ def crossing_scenario(recording: Recording, rng: np.random.Generator, *,
 
     Returns
     -------
-    Scenario, and a dict describing the draw (window start, start, goal, pedestrians).
+    Scenario, and a dict describing the draw (window start, start, goal, pedestrians, and
+    :func:`goal_free_at`: None where no planner can arrive).
     """
     robot = robot or RobotConfig()
     first, last = recording.span
@@ -238,9 +263,12 @@ def crossing_scenario(recording: Recording, rng: np.random.Generator, *,
         scenario = Scenario(name=name or f"{recording.name}@{t0:.1f}s", agents=(agent,),
                             pedestrians=tuple(peds), duration=float(duration),
                             description=f"ETH/UCY {recording.name} from {t0:.2f} s")
+        circle = min(c[2] for c in robot.footprint)
         draw = {"recording": recording.name, "window_start": t0,
                 "start": [float(v) for v in start_xy], "goal": [float(v) for v in goal_xy],
-                "pedestrians": len(peds)}
+                "pedestrians": len(peds),
+                "goal_free_at": goal_free_at(peds, start_xy, goal_xy, goal_tolerance, circle,
+                                             robot.v_limit, duration, dt)}
         return scenario, draw
     raise InputError(f"recording {recording.name!r}: no valid crossing in {tries} draws "
                      f"(need {min_pedestrians} pedestrians and a clear start)")

@@ -98,6 +98,8 @@ def classify_folder(out_dir, escape: bool = False) -> dict:
                     failure = classify(episode, robot).to_dict()
                     if escape and outcome == "collision":
                         failure["evidence"].update(escapes(episode, robot))
+                    if "goal_free_at" in row:  # a replay's draw: when the goal first freed
+                        failure["evidence"]["goal_free_at"] = row["goal_free_at"]
                     failures.append({"table": stem, "label": label, "episode_file": name,
                                      **failure})
     counts = Counter(f["class"] for f in failures)
@@ -106,6 +108,10 @@ def classify_folder(out_dir, escape: bool = False) -> dict:
         found = Counter(str(f["evidence"]["escape"]).split(":")[0] for f in failures
                         if "escape" in f["evidence"])
         report["escapes"] = {name: found[name] for name in ESCAPES if found[name]}
+    never = [f for f in failures if "goal_free_at" in f["evidence"]
+             and f["evidence"]["goal_free_at"] is None]
+    if never:
+        report["goal_never_free"] = len(never)
     return {**report,
             "counts": {name: counts[name] for name in CLASSES if counts[name]},
             "unclassified": len(unclassified), "failures": failures,
@@ -145,6 +151,10 @@ def markdown(report: dict) -> str:
     lines += [f"| {name} | {n} |" for name, n in report["counts"].items()]
     if report["unclassified"]:
         lines.append(f"| unclassified | {report['unclassified']} |")
+    if "goal_never_free" in report:
+        lines += ["", f"{report['goal_never_free']} of them no planner could win: a pedestrian "
+                  "covered the goal from the robot's earliest possible arrival to the end "
+                  "(`goal_free_at` empty)."]
     if "escapes" in report:
         lines += ["", "Collisions by their narrowest way out within the robot's limits, against "
                   "the logged people (`--escape`):", "", "| way out | collisions |", "|---|---|"]
@@ -197,6 +207,8 @@ def run(args) -> int:
         print(f"  {name:{width}s} {n}")
     if report["unclassified"]:
         print(f"  {'unclassified':{width}s} {report['unclassified']}")
+    if "goal_never_free" in report:
+        print(f"goal never free (no planner could win): {report['goal_never_free']}")
     if "escapes" in report:
         found = ", ".join(f"{k} {n}" for k, n in report["escapes"].items())
         print("collisions by their narrowest way out (forward only, the rung's reverse, a full-"
