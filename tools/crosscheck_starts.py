@@ -62,6 +62,8 @@ def main() -> None:
     parser.add_argument("--nudges", type=int, default=0)
     parser.add_argument("--n-screen", type=int, default=256)
     parser.add_argument("--n-solved", type=int, default=3)
+    parser.add_argument("--max-iter", type=int, default=None,
+                        help="local.max_iter: the solver's iteration cap for every start")
     parser.add_argument("--distinct", type=float, default=None,
                         help="multistart.distinct: how far apart (share of the box) starts are")
     parser.add_argument("--oracle", action="store_true",
@@ -111,6 +113,8 @@ def main() -> None:
                                     n_solved=args.n_solved)
     if args.distinct is not None:
         solver = solver.replace(distinct=args.distinct)
+    if args.max_iter is not None:
+        solver = solver.replace(max_iter=args.max_iter)
     nlp = Planner(config, solver)
     nlp.prepare()
     if args.r_power != 1.0:
