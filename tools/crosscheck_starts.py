@@ -62,6 +62,9 @@ def main() -> None:
     parser.add_argument("--nudges", type=int, default=0)
     parser.add_argument("--n-screen", type=int, default=256)
     parser.add_argument("--n-solved", type=int, default=3)
+    parser.add_argument("--solver", choices=("nlp", "fast"), default="nlp",
+                        help="the method whose starts are changed (the timing's default is "
+                             "the product's, IPOPT)")
     parser.add_argument("--max-iter", type=int, default=None,
                         help="local.max_iter: the solver's iteration cap for every start")
     parser.add_argument("--distinct", type=float, default=None,
@@ -109,8 +112,8 @@ def main() -> None:
         return starts
 
     planner_module.structured_starts = with_extra
-    solver = SolverConfig().replace(nudges=args.nudges, n_screen=args.n_screen,
-                                    n_solved=args.n_solved)
+    solver = SolverConfig.named(args.solver).replace(nudges=args.nudges, n_screen=args.n_screen,
+                                                     n_solved=args.n_solved)
     if args.distinct is not None:
         solver = solver.replace(distinct=args.distinct)
     if args.max_iter is not None:
