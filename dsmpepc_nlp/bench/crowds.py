@@ -164,16 +164,17 @@ def _occupied(peds, point, start: float, end: float, dt: float, distance: float)
     return bool(near.size) and float(np.min(np.linalg.norm(near - point, axis=-1))) < distance
 
 
-def goal_free_at(peds, start, goal, tolerance: float, circle: float, v_limit: float,
+def goal_free_at(peds, start, goal, tolerance: float, core: float, v_limit: float,
                  duration: float, dt: float) -> float | None:
     """The first simulation time (s) at which a robot could stand at ``goal``, or None.
 
     A robot arrives no sooner than ``(|goal - start| - tolerance) / v_limit`` (straight at its
-    speed limit; the replays have no map), and only at a time when no pedestrian covers every
-    point within ``tolerance`` of the goal for a footprint circle of radius ``circle``
-    (``|person - goal| + tolerance < r_person + circle``: the classifier's ``goal-occupied``
-    test). None when the goal is covered from that earliest arrival to ``duration``: no
-    planner can win the run.
+    speed limit; the replays have no map), and only at a time when some point within
+    ``tolerance`` of the goal is clear of every pedestrian's body by the footprint's ``core``
+    (:func:`footprint_core`): a pedestrian covers the goal when ``|person - goal| + tolerance <
+    r_person + core`` (for the default robot, one circle at its centre, the classifier's
+    ``goal-occupied`` test). None when the goal is covered from that earliest arrival to
+    ``duration``: no planner can win the run.
     """
     earliest = max(0.0, (float(np.hypot(goal[0] - start[0], goal[1] - start[1])) - tolerance)
                    / v_limit)
@@ -184,8 +185,14 @@ def goal_free_at(peds, start, goal, tolerance: float, circle: float, v_limit: fl
     at = np.array([[p.position(t) for p in peds] for t in times]).reshape(times.size, -1, 2)
     radii = np.array([p.radius for p in peds])
     d = np.linalg.norm(at - np.asarray(goal, dtype=float), axis=-1)
-    free = ~np.any(d + tolerance < radii + circle, axis=1)
+    free = ~np.any(d + tolerance < radii + core, axis=1)
     return float(times[np.argmax(free)]) if free.any() else None
+
+
+def footprint_core(robot: RobotConfig) -> float:
+    """The radius (m) about the robot's reference point that its body covers whatever its
+    heading: ``max(r - |(cx, cy)|)`` over its circles (a circle at the centre: its radius)."""
+    return max(r - math.hypot(cx, cy) for cx, cy, r in robot.footprint)
 
 
 def crossing_scenario(recording: Recording, rng: np.random.Generator, *,
@@ -263,12 +270,12 @@ def crossing_scenario(recording: Recording, rng: np.random.Generator, *,
         scenario = Scenario(name=name or f"{recording.name}@{t0:.1f}s", agents=(agent,),
                             pedestrians=tuple(peds), duration=float(duration),
                             description=f"ETH/UCY {recording.name} from {t0:.2f} s")
-        circle = min(c[2] for c in robot.footprint)
         draw = {"recording": recording.name, "window_start": t0,
                 "start": [float(v) for v in start_xy], "goal": [float(v) for v in goal_xy],
                 "pedestrians": len(peds),
-                "goal_free_at": goal_free_at(peds, start_xy, goal_xy, goal_tolerance, circle,
-                                             robot.v_limit, duration, dt)}
+                "goal_free_at": goal_free_at(peds, start_xy, goal_xy, goal_tolerance,
+                                             footprint_core(robot), robot.v_limit, duration,
+                                             dt)}
         return scenario, draw
     raise InputError(f"recording {recording.name!r}: no valid crossing in {tries} draws "
                      f"(need {min_pedestrians} pedestrians and a clear start)")
