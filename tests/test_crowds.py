@@ -116,12 +116,12 @@ def test_goal_free_at_is_none_only_when_no_robot_could_stand_at_the_goal():
 def test_footprint_core_is_what_the_body_covers_whatever_its_heading():
     from dsmpepc_nlp.core.config import RobotConfig
 
-    assert crowds.footprint_core(RobotConfig()) == 0.3
+    assert crowd_rows.footprint_core(RobotConfig().footprint) == 0.3
     three = RobotConfig(footprint=((-0.15, 0.0, 0.2), (0.0, 0.0, 0.2), (0.15, 0.0, 0.2)))
-    assert crowds.footprint_core(three) == pytest.approx(0.2)
+    assert crowd_rows.footprint_core(three.footprint) == pytest.approx(0.2)
     # no circle on the reference point: only 0.05 m about it is body at every heading
     two = RobotConfig(footprint=((0.2, 0.0, 0.25), (-0.2, 0.0, 0.25)))
-    assert crowds.footprint_core(two) == pytest.approx(0.05)
+    assert crowd_rows.footprint_core(two.footprint) == pytest.approx(0.05)
 
 
 def test_summary_counts_the_runs_no_planner_can_win():

@@ -148,6 +148,20 @@ def test_a_person_standing_on_the_goal_all_window_is_goal_occupied():
     assert f.evidence["goal_person_distance"] == pytest.approx(0.1)
 
 
+def test_goal_occupied_reads_what_the_footprint_covers_at_any_heading():
+    """Two circles 0.2 m either side of the reference point (r 0.25) cover only 0.05 m about
+    it at every heading: a person 0.12 m from the goal leaves a point of the 0.25 m tolerance
+    where such a robot can stand (0.12 + 0.25 > 0.3 + 0.05), so that is not goal-occupied
+    (it was by the smallest circle's 0.25 m); 0.05 m from the goal it is."""
+    ped = np.tile([[[1.12, 0.0]]], (STALL, 1, 1))
+    episode = make_episode(standing(STALL), "deadlock", peds=ped, goal=(1.0, 0.0))
+    episode.meta["footprints"] = [[[0.2, 0.0, 0.25], [-0.2, 0.0, 0.25]]]
+    assert classify(episode).evidence["goal_occupied_share"] == 0.0
+    episode = make_episode(standing(STALL), "deadlock", peds=ped - [0.07, 0.0], goal=(1.0, 0.0))
+    episode.meta["footprints"] = [[[0.2, 0.0, 0.25], [-0.2, 0.0, 0.25]]]
+    assert classify(episode).name == "goal-occupied"
+
+
 def test_a_goal_that_was_free_for_a_moment_is_not_goal_occupied():
     ped = np.tile([[[1.1, 0.0]]], (STALL, 1, 1))
     ped[STALL - 20] = (1.1, 2.0)            # stepped aside for one cycle in the window

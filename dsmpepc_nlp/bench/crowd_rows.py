@@ -23,6 +23,22 @@ plan sees a newcomer up to a 0.2 s cycle late. The failure classifier's ``appear
 uses it too."""
 
 
+def footprint_core(circles) -> float:
+    """The radius (m) about the robot's reference point that its body covers whatever its
+    heading: ``max(r - |(cx, cy)|)`` over its ``(cx, cy, r)`` circles (one circle at the
+    centre: its radius)."""
+    return max(float(r) - math.hypot(float(cx), float(cy)) for cx, cy, r in circles)
+
+
+def goal_covered(distances, radii, tolerance: float, core: float):
+    """Whether pedestrians at ``distances`` (m, centre to goal; any shape, pedestrians last) with
+    body ``radii`` cover the goal: every point within ``tolerance`` of it is within
+    ``r_person + core`` of one (``|person - goal| + tolerance < r_person + core``), so a robot
+    whose body covers ``core`` (:func:`footprint_core`) cannot arrive without touching them.
+    Reduced over the last axis."""
+    return np.any(np.asarray(distances) + tolerance < np.asarray(radii) + core, axis=-1)
+
+
 def contact_age(episode, robot: int = 0) -> float:
     """How long (s) the pedestrian the robot collided with had been on stage at the contact;
     NaN without a collision with a pedestrian (the touched one: the smallest gap then)."""

@@ -29,7 +29,14 @@ from ..core.errors import InputError
 from ..core.solver_config import SolverConfig
 from ..sim.simulate import simulate
 from ..sim.types import Agent, FixedGoal, Pedestrian, Scenario
-from .crowd_rows import OFFSTAGE, contact_age, measured_row, run_variants
+from .crowd_rows import (
+    OFFSTAGE,
+    contact_age,
+    footprint_core,
+    goal_covered,
+    measured_row,
+    run_variants,
+)
 from .cv import CROWD_BASELINES, ConstantVelocityPlanner
 from .orca import check_variants, simulate_orca
 from .params import config_meta, named_solver, planner_config, robot_with
@@ -171,10 +178,10 @@ def goal_free_at(peds, start, goal, tolerance: float, core: float, v_limit: floa
     A robot arrives no sooner than ``(|goal - start| - tolerance) / v_limit`` (straight at its
     speed limit; the replays have no map), and only at a time when some point within
     ``tolerance`` of the goal is clear of every pedestrian's body by the footprint's ``core``
-    (:func:`footprint_core`): a pedestrian covers the goal when ``|person - goal| + tolerance <
-    r_person + core`` (for the default robot, one circle at its centre, the classifier's
-    ``goal-occupied`` test). None when the goal is covered from that earliest arrival to
-    ``duration``: no planner can win the run.
+    (:func:`~dsmpepc_nlp.bench.crowd_rows.footprint_core`; the test is
+    :func:`~dsmpepc_nlp.bench.crowd_rows.goal_covered`, the classifier's ``goal-occupied``
+    one). None when the goal is covered from that earliest arrival to ``duration``: no
+    planner can win the run.
     """
     earliest = max(0.0, (float(np.hypot(goal[0] - start[0], goal[1] - start[1])) - tolerance)
                    / v_limit)
@@ -185,14 +192,8 @@ def goal_free_at(peds, start, goal, tolerance: float, core: float, v_limit: floa
     at = np.array([[p.position(t) for p in peds] for t in times]).reshape(times.size, -1, 2)
     radii = np.array([p.radius for p in peds])
     d = np.linalg.norm(at - np.asarray(goal, dtype=float), axis=-1)
-    free = ~np.any(d + tolerance < radii + core, axis=1)
+    free = ~goal_covered(d, radii, tolerance, core)
     return float(times[np.argmax(free)]) if free.any() else None
-
-
-def footprint_core(robot: RobotConfig) -> float:
-    """The radius (m) about the robot's reference point that its body covers whatever its
-    heading: ``max(r - |(cx, cy)|)`` over its circles (a circle at the centre: its radius)."""
-    return max(r - math.hypot(cx, cy) for cx, cy, r in robot.footprint)
 
 
 def crossing_scenario(recording: Recording, rng: np.random.Generator, *,
@@ -274,7 +275,8 @@ def crossing_scenario(recording: Recording, rng: np.random.Generator, *,
                 "start": [float(v) for v in start_xy], "goal": [float(v) for v in goal_xy],
                 "pedestrians": len(peds),
                 "goal_free_at": goal_free_at(peds, start_xy, goal_xy, goal_tolerance,
-                                             footprint_core(robot), robot.v_limit, duration,
+                                             footprint_core(robot.footprint), robot.v_limit,
+                                             duration,
                                              dt)}
         return scenario, draw
     raise InputError(f"recording {recording.name!r}: no valid crossing in {tries} draws "

@@ -19,8 +19,9 @@ rules used. The rules, in the order they are tried (the first that holds names t
 ``goal-occupied``
     Not a collision, and over the whole last :data:`STUCK_WINDOW` of the run a pedestrian
     stood where the robot would have to be to arrive: its body overlaps every point within the
-    goal tolerance, for the smallest circle of the footprint (``|person - goal| + tolerance <
-    r_person + r_circle``). No planner can arrive while it stands there (in ETH/UCY's zara2,
+    goal tolerance, for what the footprint covers at any heading
+    (:func:`~dsmpepc_nlp.bench.crowd_rows.goal_covered`: ``|person - goal| + tolerance <
+    r_person + core``). No planner can arrive while it stands there (in ETH/UCY's zara2,
     goals drawn where people walked fall on people who stand talking for minutes).
 ``slow`` / ``wandering``
     Not a collision, not ``goal-occupied`` and not stuck: over the last
@@ -58,7 +59,7 @@ from ..core.geometry import footprint_points
 from ..core.world import World
 from ..sim.metrics import collision_kind, contact_approach_speed, run_length
 from ..sim.outcomes import OutcomeConfig
-from .crowd_rows import APPEARED, contact_age
+from .crowd_rows import APPEARED, contact_age, footprint_core, goal_covered
 
 CLASSES = ("appeared-in-reach", "at-fault", "struck-moving", "struck-stopped",
            "goal-occupied", "stalled-near-goal-person", "stalled-beside-person",
@@ -254,16 +255,16 @@ def _appeared(episode, robot) -> dict:
 
 def _goal_occupied(episode, robot, first, stop) -> dict:
     """Over states ``first .. stop - 1``: the share of them in which a pedestrian's body
-    covers every point within the goal tolerance for the footprint's smallest circle
+    covers every point within the goal tolerance for the footprint's core
     (``goal_occupied_share``), and at the last of them the nearest pedestrian to the goal
     (``goal_person``, ``goal_person_distance`` m, centre to goal); {} without pedestrians."""
     if not episode.ped_radii.size:
         return {}
     tolerance = float(episode.meta.get("goal_tolerances", [0.0] * (robot + 1))[robot])
-    smallest = float(np.min(episode.footprint(robot)[:, 2]))
+    core = footprint_core(episode.footprint(robot))
     goals = episode.goals[robot, first:stop]
     d = np.linalg.norm(episode.ped_positions[first:stop] - goals[:, None, :], axis=-1)
-    covered = np.any(d + tolerance < episode.ped_radii[None] + smallest, axis=1)
+    covered = goal_covered(d, episode.ped_radii[None], tolerance, core)
     j = int(np.argmin(d[-1]))
     return {"goal_occupied_share": float(np.mean(covered)), "goal_person": j,
             "goal_person_distance": float(d[-1, j])}
