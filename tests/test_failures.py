@@ -341,6 +341,14 @@ def test_a_replay_row_says_which_goals_no_planner_could_reach(tmp_path, capsys):
     assert "goal_never_free" not in classify_folder(_folder(tmp_path / "barn"))
 
 
+def test_the_figure_says_when_the_goal_first_freed():
+    from dsmpepc_nlp.viz.failures import _text
+
+    assert "goal_free_at: never" in _text({"goal_occupied_share": 1.0, "goal_free_at": None})
+    assert "goal_free_at: 28.2 s" in _text({"goal_free_at": 28.2})
+    assert "goal_free_at" not in _text({"goal_occupied_share": 1.0})
+
+
 def test_the_command_refuses_a_folder_without_a_table(tmp_path, capsys):
     assert main(["failures", str(tmp_path)]) == 2
     assert "no benchmark table" in capsys.readouterr().err

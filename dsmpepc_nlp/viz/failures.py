@@ -33,6 +33,9 @@ def _text(evidence: dict) -> str:
         if key in evidence and evidence[key] is not None:
             value = evidence[key]
             lines.append(f"{key}: {value:.2f}" if isinstance(value, float) else f"{key}: {value}")
+    if "goal_free_at" in evidence:  # a replay's draw: None, no planner could have arrived
+        free = evidence["goal_free_at"]
+        lines.append("goal_free_at: never" if free is None else f"goal_free_at: {free:.1f} s")
     return "\n".join(lines)
 
 
