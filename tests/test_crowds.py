@@ -104,6 +104,7 @@ def test_goal_free_at_is_none_only_when_no_robot_could_stand_at_the_goal():
                           np.array([at, at, (at[0], at[1] + 5.0)]))
 
     assert free_at() == pytest.approx(3.8)               # (4 - 0.3) / 1 m/s, on the 0.2 s grid
+    assert crowds.goal_free_at([], start, (40.0, 0.0), 0.3, 0.3, 1.0, 10.0, 0.2) is None
     assert free_at(standing(20.0)) is None               # there past the end: no planner wins
     assert free_at(standing(2.0)) == pytest.approx(3.8)  # gone before the robot could arrive
     assert 6.0 < free_at(standing(6.0)) <= 6.4           # the goal frees as the person leaves

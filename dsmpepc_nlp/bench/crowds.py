@@ -180,8 +180,8 @@ def goal_free_at(peds, start, goal, tolerance: float, core: float, v_limit: floa
     ``tolerance`` of the goal is clear of every pedestrian's body by the footprint's ``core``
     (:func:`~dsmpepc_nlp.bench.crowd_rows.footprint_core`; the test is
     :func:`~dsmpepc_nlp.bench.crowd_rows.goal_covered`, the classifier's ``goal-occupied``
-    one). None when the goal is covered from that earliest arrival to ``duration``: no
-    planner can win the run.
+    one). None when no such time comes by ``duration`` (the goal covered from the earliest
+    arrival to the end, or that arrival later than the end): no planner can win the run.
     """
     earliest = max(0.0, (float(np.hypot(goal[0] - start[0], goal[1] - start[1])) - tolerance)
                    / v_limit)
@@ -276,8 +276,7 @@ def crossing_scenario(recording: Recording, rng: np.random.Generator, *,
                 "pedestrians": len(peds),
                 "goal_free_at": goal_free_at(peds, start_xy, goal_xy, goal_tolerance,
                                              footprint_core(robot.footprint), robot.v_limit,
-                                             duration,
-                                             dt)}
+                                             duration, dt)}
         return scenario, draw
     raise InputError(f"recording {recording.name!r}: no valid crossing in {tries} draws "
                      f"(need {min_pedestrians} pedestrians and a clear start)")
