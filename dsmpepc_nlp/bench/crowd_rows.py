@@ -124,10 +124,9 @@ def summarise(rows) -> dict:
 
 def _never_free(rows) -> dict:
     """``goal_never_free_rate`` of replay rows (tables that record ``goal_free_at``), else {}."""
-    drawn = [r for r in rows if "goal_free_at" in r]
-    if not rows or len(drawn) < len(rows):
+    if not rows or any("goal_free_at" not in r for r in rows):
         return {}
-    return {"goal_never_free_rate": sum(r["goal_free_at"] is None for r in drawn) / len(rows)}
+    return {"goal_never_free_rate": sum(r["goal_free_at"] is None for r in rows) / len(rows)}
 
 
 def run_variants(run_episode, settings, variants, episodes: int, seed: int, table, *, label,

@@ -166,9 +166,13 @@ def _tracks(recording: Recording, t0: float, t1: float, offset: float) -> list:
 def _occupied(peds, point, start: float, end: float, dt: float, distance: float) -> bool:
     """Whether a pedestrian comes nearer than ``distance`` (centre to centre) to ``point`` at
     the simulation's times ``start, start + dt, ... <= end``, s."""
-    times = np.arange(max(start, 0.0), end + 1e-9, dt)
-    near = np.array([[p.position(t) for p in peds] for t in times])
+    near = _positions(peds, np.arange(max(start, 0.0), end + 1e-9, dt))
     return bool(near.size) and float(np.min(np.linalg.norm(near - point, axis=-1))) < distance
+
+
+def _positions(peds, times) -> np.ndarray:
+    """Every pedestrian's position at each of ``times``, m, shape (len(times), len(peds), 2)."""
+    return np.array([[p.position(t) for p in peds] for t in times]).reshape(len(times), -1, 2)
 
 
 def goal_free_at(peds, start, goal, tolerance: float, core: float, v_limit: float,
@@ -189,9 +193,8 @@ def goal_free_at(peds, start, goal, tolerance: float, core: float, v_limit: floa
     times = times[times >= earliest - 1e-9]
     if not peds:
         return float(times[0]) if times.size else None
-    at = np.array([[p.position(t) for p in peds] for t in times]).reshape(times.size, -1, 2)
     radii = np.array([p.radius for p in peds])
-    d = np.linalg.norm(at - np.asarray(goal, dtype=float), axis=-1)
+    d = np.linalg.norm(_positions(peds, times) - np.asarray(goal, dtype=float), axis=-1)
     free = ~goal_covered(d, radii, tolerance, core)
     return float(times[np.argmax(free)]) if free.any() else None
 

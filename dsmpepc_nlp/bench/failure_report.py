@@ -108,10 +108,10 @@ def classify_folder(out_dir, escape: bool = False) -> dict:
         found = Counter(str(f["evidence"]["escape"]).split(":")[0] for f in failures
                         if "escape" in f["evidence"])
         report["escapes"] = {name: found[name] for name in ESCAPES if found[name]}
-    never = [f for f in failures if "goal_free_at" in f["evidence"]
-             and f["evidence"]["goal_free_at"] is None]
+    never = sum("goal_free_at" in f["evidence"] and f["evidence"]["goal_free_at"] is None
+                for f in failures)
     if never:
-        report["goal_never_free"] = len(never)
+        report["goal_never_free"] = never
     return {**report,
             "counts": {name: counts[name] for name in CLASSES if counts[name]},
             "unclassified": len(unclassified), "failures": failures,
