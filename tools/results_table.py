@@ -1,0 +1,216 @@
+"""The product's defaults and the paper preset side by side, from their benchmark folders.
+
+Reads a folder ``ROOT`` that holds, for each benchmark, the ``--out`` folder of a run with the
+product's defaults and one with ``--preset paper``: ``ROOT/<name>-product`` and
+``ROOT/<name>-paper`` (any ``<name>``; the commands in docs/results.md, "The published tables",
+make them). Prints one markdown table of the navigation benchmarks (``dsmpepc benchmark barn``,
+``crowd``, ``crowdnav``: DS-MPEPC's rows) with, for each preset: success, collision (at fault /
+struck), timeout, deadlock, mean time to goal and path length of the successes, plan time
+(median over runs of each run's median, 95th percentile of their 95th percentiles), the failure
+classes (``<out>/failures.json``, written by ``dsmpepc failures OUT``) and the cases only that
+preset wins, with the two-sided sign test (``tools/paired.py``). Then a table of the built-in
+scenarios (``dsmpepc benchmark scenarios``), run by run::
+
+    python tools/results_table.py ROOT
+    python tools/results_table.py ROOT --json
+
+Every figure is computed by the package's own summaries (``crowd_rows.summarise``,
+``barn.summarise``, ``runner.plan_time_summary``); nothing is typed in by hand.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections import Counter
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))   # the pairing of tools/paired.py
+
+from paired import compare, load  # noqa: E402
+
+from dsmpepc_nlp.bench import barn, crowd_rows  # noqa: E402
+from dsmpepc_nlp.bench.failure_report import REPORT, read_tables  # noqa: E402
+from dsmpepc_nlp.bench.failures import CLASSES  # noqa: E402
+from dsmpepc_nlp.bench.runner import mean  # noqa: E402
+
+PRESETS = ("product", "paper")
+VARIANT = "ds-mpepc"
+
+
+def pairs(root) -> list:
+    """``[(name, {preset: folder})]`` of every ``<name>-product`` with its ``<name>-paper``."""
+    root = Path(root)
+    found = []
+    for product in sorted(root.glob("*-product")):
+        name = product.name[: -len("-product")]
+        paper = root / f"{name}-paper"
+        if product.is_dir() and paper.is_dir():
+            found.append((name, {"product": product, "paper": paper}))
+    if not found:
+        raise SystemExit(f"{root}: no <name>-product folder with its <name>-paper beside it")
+    return found
+
+
+def table(folder: Path) -> tuple:
+    """``(stem, meta, rows)`` of the one benchmark table in ``folder``."""
+    tables = read_tables(folder)
+    if len(tables) != 1:
+        raise SystemExit(f"{folder}: {len(tables)} benchmark tables, expected one")
+    stem, _, rows = tables[0]
+    meta = json.loads((folder / f"{stem}.json").read_text(encoding="utf-8")).get("meta", {})
+    return stem, meta, rows
+
+
+def classes(folder: Path, key: str, cases: set) -> dict | None:
+    """Counts per failure class of ``folder`` (``dsmpepc failures``'s report) over ``cases``
+    (the ``key`` values both presets ran); None when the folder was not classified."""
+    path = folder / f"{REPORT}.json"
+    if not path.exists():
+        return None
+    failures = json.loads(path.read_text(encoding="utf-8"))["failures"]
+    counts = Counter(f["class"] for f in failures
+                     if any(f"{key}={case}" in f["label"].split() for case in cases))
+    return {name: counts[name] for name in CLASSES if counts[name]}
+
+
+def figures_of(stem: str, rows: list, cases: set) -> dict:
+    """Rates, means and plan times of DS-MPEPC's rows of one table, on ``cases`` (the cases
+    both presets ran: ``world`` for BARN, ``episode`` otherwise)."""
+    rows = [r for r in rows if r.get("variant") == VARIANT and str(r[case_key(stem)]) in cases]
+    if stem == "barn":
+        s = barn.summarise(rows)
+        s["time_to_goal"] = s["mean_time_success"]
+        s["at_fault_rate"], s["struck_rate"] = s["collision_rate"], 0.0  # static worlds
+    else:
+        s = crowd_rows.summarise(rows)
+    s["path_length"] = mean(rows, "path_length", lambda r: r["outcome"] == "success")
+    s["runs"] = len(rows)
+    return s
+
+
+def case_key(stem: str) -> str:
+    """The field that names a case of a table: ``world`` for BARN, ``episode`` otherwise."""
+    return "world" if stem == "barn" else "episode"
+
+
+def label(stem: str, meta: dict, runs: int) -> str:
+    """A row's name: the benchmark, its scene and setting, and how many runs."""
+    if stem == "barn":
+        return f"BARN, {runs} worlds"
+    if stem == "crowdnav":
+        return f"CrowdNav {meta.get('scene')} {meta.get('setting')}, {runs}"
+    return f"ETH/UCY {meta.get('scene', stem)}, {runs}"
+
+
+def navigation(found) -> list:
+    """One entry per navigation benchmark: its label, each preset's figures, the pairing."""
+    out = []
+    for name, folders in found:
+        loaded = {p: table(folders[p]) for p in PRESETS}
+        stem, meta, _ = loaded["product"]
+        if stem == "scenarios":
+            continue
+        csvs = [load(str(folders[p] / f"{loaded[p][0]}.csv"), VARIANT) for p in PRESETS]
+        cases = set(csvs[0]) & set(csvs[1])
+        paired = compare(*csvs)
+        entry = {"name": name, "presets": {}}
+        for preset in PRESETS:
+            figures = figures_of(stem, loaded[preset][2], cases)
+            figures["classes"] = classes(folders[preset], case_key(stem), cases)
+            entry["presets"][preset] = figures
+        entry["label"] = label(stem, meta, len(cases))
+        entry["only"] = {"product": paired["only_a"], "paper": paired["only_b"]}
+        entry["p"] = paired["p"]
+        out.append(entry)
+    return out
+
+
+def scenarios(found) -> list:
+    """Rows ``{scenario, variant, product: row, paper: row}`` of the scenario benchmarks."""
+    out = []
+    for _, folders in found:
+        loaded = {p: table(folders[p]) for p in PRESETS}
+        if loaded["product"][0] != "scenarios":
+            continue
+        index = {p: {(r["scenario"], r["variant"]): r for r in loaded[p][2]} for p in PRESETS}
+        for key, row in sorted(index["product"].items()):
+            out.append({"scenario": key[0], "variant": key[1], "product": row,
+                        "paper": index["paper"].get(key)})
+    return out
+
+
+def _num(value, digits=2, scale=1.0) -> str:
+    return "-" if value is None or (isinstance(value, float) and math.isnan(value)) \
+        else f"{value * scale:.{digits}f}"
+
+
+def _classes(counts) -> str:
+    if counts is None:
+        return "not classified"
+    return ", ".join(f"{k} {v}" for k, v in counts.items()) or "none"
+
+
+def markdown(nav: list, scen: list) -> str:
+    """The two tables as markdown."""
+    lines = ["| benchmark | preset | success | collision (at fault / struck) | timeout | "
+             "deadlock | time to goal s | path m | plan ms median / p95 | failure classes | "
+             "only this preset wins |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for entry in nav:
+        for preset in PRESETS:
+            s = entry["presets"][preset]
+            only = entry["only"][preset]
+            lines.append(
+                f"| {entry['label'] if preset == 'product' else ''} | {preset} | "
+                f"{_num(s['success_rate'], 3)} | {_num(s['collision_rate'], 3)} "
+                f"({_num(s['at_fault_rate'], 3)} / {_num(s['struck_rate'], 3)}) | "
+                f"{_num(s['timeout_rate'], 3)} | {_num(s['deadlock_rate'], 3)} | "
+                f"{_num(s['time_to_goal'])} | {_num(s['path_length'])} | "
+                f"{_num(s['plan_time_median'], 0, 1e3)} / {_num(s['plan_time_p95'], 0, 1e3)} | "
+                f"{_classes(s['classes'])} | {len(only)}"
+                + (f" (p = {entry['p']:.2g})" if preset == "paper" else "") + " |")
+    if scen:
+        lines += ["", "| scenario | variant | product | paper |", "|---|---|---|---|"]
+        for r in scen:
+            lines.append(f"| {r['scenario']} | {r['variant']} | {_run(r['product'])} | "
+                         f"{_run(r['paper'])} |")
+    return "\n".join(lines)
+
+
+def _run(row) -> str:
+    """One scenario run: its robots' outcomes and mean time to goal."""
+    if row is None:
+        return "not run"
+    outcomes = str(row.get("outcomes", "")).split(",")
+    won = outcomes.count("success")
+    text = f"{won} of {len(outcomes)} robot" + "s" * (len(outcomes) > 1)
+    others = sorted({o for o in outcomes if o != "success"})
+    if others:
+        text += f" ({', '.join(others)})"
+    if won and row.get("time_to_goal") is not None:
+        text += f", {row['time_to_goal']:.2f} s"
+    if row.get("path_length") is not None:
+        text += f", {row['path_length']:.2f} m"
+    return text
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("root", help="folder of <name>-product and <name>-paper --out folders")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    args = parser.parse_args(argv)
+    found = pairs(args.root)
+    nav, scen = navigation(found), scenarios(found)
+    if args.json:
+        json.dump({"navigation": nav, "scenarios": scen}, sys.stdout, default=str)
+        print()
+    else:
+        print(markdown(nav, scen))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
