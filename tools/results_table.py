@@ -37,6 +37,8 @@ from dsmpepc_nlp.bench.failures import CLASSES  # noqa: E402
 from dsmpepc_nlp.bench.runner import mean  # noqa: E402
 
 PRESETS = ("product", "paper")
+ORDER = ("barn", "crowdnav", "crowd")
+"""The benchmarks' order in the table (by their table's stem): BARN, CrowdNav, ETH/UCY."""
 VARIANT = "ds-mpepc"
 
 
@@ -124,8 +126,9 @@ def navigation(found) -> list:
         entry["label"] = label(stem, meta, len(cases))
         entry["only"] = {"product": paired["only_a"], "paper": paired["only_b"]}
         entry["p"] = paired["p"]
+        entry["order"] = (ORDER.index(stem) if stem in ORDER else len(ORDER), entry["label"])
         out.append(entry)
-    return out
+    return sorted(out, key=lambda e: e["order"])
 
 
 def scenarios(found) -> list:
