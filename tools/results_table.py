@@ -73,8 +73,8 @@ def classes(folder: Path, key: str, cases: set) -> dict | None:
     if not path.exists():
         return None
     failures = json.loads(path.read_text(encoding="utf-8"))["failures"]
-    counts = Counter(f["class"] for f in failures
-                     if any(f"{key}={case}" in f["label"].split() for case in cases))
+    shared = {f"{key}={case}" for case in cases}      # a label holds e.g. "episode=12"
+    counts = Counter(f["class"] for f in failures if shared & set(f["label"].split()))
     return {name: counts[name] for name in CLASSES if counts[name]}
 
 
@@ -115,6 +115,7 @@ def navigation(found) -> list:
         stem, meta, _ = loaded["product"]
         if stem == "scenarios":
             continue
+        rank = ORDER.index(stem) if stem in ORDER else len(ORDER)
         csvs = [load(str(folders[p] / f"{loaded[p][0]}.csv"), VARIANT) for p in PRESETS]
         cases = set(csvs[0]) & set(csvs[1])
         paired = compare(*csvs)
@@ -126,9 +127,8 @@ def navigation(found) -> list:
         entry["label"] = label(stem, meta, len(cases))
         entry["only"] = {"product": paired["only_a"], "paper": paired["only_b"]}
         entry["p"] = paired["p"]
-        entry["order"] = (ORDER.index(stem) if stem in ORDER else len(ORDER), entry["label"])
-        out.append(entry)
-    return sorted(out, key=lambda e: e["order"])
+        out.append((rank, entry["label"], entry))
+    return [entry for *_, entry in sorted(out, key=lambda t: t[:2])]
 
 
 def scenarios(found) -> list:
