@@ -43,7 +43,7 @@ def test_sides_alternate_and_the_worktree_is_removed(tool, monkeypatch, tmp_path
     pairs = tool("bench_pairs")
     calls, git = [], []
 
-    def fake_bench(source, cycles, out, cwd, iterations=False):
+    def fake_bench(source, cycles, out, cwd, mode="bench"):
         side = "this" if source == pairs.REPO else "base"
         calls.append((side, out.name))
         return run(20.0 if side == "base" else 22.0)
@@ -59,7 +59,7 @@ def test_sides_alternate_and_the_worktree_is_removed(tool, monkeypatch, tmp_path
     result = json.loads(capsys.readouterr().out)
     assert result["figures"]["default median, ms"]["pairs_ratio_median"] == pytest.approx(1.1)
 
-    def failing_bench(source, cycles, out, cwd, iterations=False):
+    def failing_bench(source, cycles, out, cwd, mode="bench"):
         raise SystemExit("bench failed")
 
     git.clear()
@@ -72,9 +72,28 @@ def test_sides_alternate_and_the_worktree_is_removed(tool, monkeypatch, tmp_path
 def test_the_iteration_program_times_ipopt_on_this_checkout(tool, tmp_path):
     """``--iterations``: the same program on both sides; here, on this checkout, two cycles."""
     pairs = tool("bench_pairs")
-    result = pairs.bench(pairs.REPO, 2, tmp_path / "run.json", tmp_path, iterations=True)
+    result = pairs.bench(pairs.REPO, 2, tmp_path / "run.json", tmp_path, mode="iterations")
     assert json.loads((tmp_path / "run.json").read_text()) == result
     assert 0.0 < result["default"]["ms_per_iteration"] < 1e3
     assert result["default"]["iterations"] >= 1.0
     summary = pairs.summarise([result], [result], pairs.ITERATION_FIGURES)
     assert summary["default ms an iteration"]["pairs_ratio_median"] == pytest.approx(1.0)
+
+
+def test_the_fresh_program_times_a_new_process_on_this_checkout(tool, tmp_path):
+    """``--fresh``: the import and the first plan of a new interpreter, its whole wall time
+    added by the parent (which includes both parts)."""
+    pairs = tool("bench_pairs")
+    result = pairs.bench(pairs.REPO, 1, tmp_path / "run.json", tmp_path, mode="fresh")
+    assert json.loads((tmp_path / "run.json").read_text()) == result
+    fresh = result["fresh"]
+    assert fresh["import_ms"] > 0 and fresh["plan_ms"] > 0
+    assert fresh["first_plan_ms"] == pytest.approx(fresh["import_ms"] + fresh["plan_ms"])
+    assert fresh["process_ms"] > fresh["first_plan_ms"]
+    summary = pairs.summarise([result], [result], pairs.FRESH_FIGURES)
+    assert summary["first plan, ms"]["pairs_ratio_median"] == pytest.approx(1.0)
+
+
+def test_iterations_and_fresh_together_are_refused(tool):
+    with pytest.raises(SystemExit):
+        tool("bench_pairs").main(["HEAD", "--iterations", "--fresh"])

@@ -28,6 +28,16 @@ their iterations, summed over the cycles; the median of the three planners) and 
 iterations a solve::
 
     python tools/bench_pairs.py 932845c --pairs 6 --iterations
+
+``--fresh`` times a fresh process's first plan instead: each run is a new interpreter running
+:data:`FRESH_PROGRAM` (again only what every revision since the issue's has), which times the
+package's import from its first statement, then, after building the demo's first cycle
+(untimed), the default planner's construction and one plan of that cycle; the parent adds the
+child's whole wall time, interpreter start and exit included. The warm-up run of each side
+writes its bytecode, so the timed runs read modules from bytecode, as ``pip install .`` leaves
+them (unless ``PYTHONDONTWRITEBYTECODE`` is set)::
+
+    python tools/bench_pairs.py f0ebd4c --pairs 20 --fresh
 """
 
 from __future__ import annotations
@@ -40,6 +50,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
@@ -93,6 +104,36 @@ print(json.dumps({"default": {"ms_per_iteration": statistics.median(per),
 """The program ``--iterations`` runs on each side (``CYCLES`` replaced by ``--cycles``)."""
 
 
+FRESH_FIGURES = {
+    "first plan, ms": ("fresh", "first_plan_ms"),
+    "imports, ms": ("fresh", "import_ms"),
+    "planner and plan, ms": ("fresh", "plan_ms"),
+    "whole process, ms": ("fresh", "process_ms"),
+}
+"""Summary rows of ``--fresh``: the key paths into :data:`FRESH_PROGRAM`'s object."""
+
+FRESH_PROGRAM = """
+import time
+started = time.perf_counter()
+import json, os
+os.environ["DSMPEPC_COMPILE"] = "wait"
+import dsmpepc_nlp
+imported = time.perf_counter()
+from dsmpepc_nlp import Planner, PlannerConfig, SolverConfig
+from dsmpepc_nlp.bench.scenes import demo_cycles
+config = PlannerConfig()
+state, world, goal = demo_cycles(config, 1, 0)[0]
+built = time.perf_counter()
+Planner(config, SolverConfig()).plan(state, world, goal, dock=False)
+done = time.perf_counter()
+print(json.dumps({"fresh": {"import_ms": 1e3 * (imported - started),
+                            "plan_ms": 1e3 * (done - built),
+                            "first_plan_ms": 1e3 * (imported - started + done - built)}}))
+"""
+"""The program ``--fresh`` runs on each side: the import, and the planner's construction with
+one plan of the demo's first cycle, timed apart from the scene's construction."""
+
+
 def figure(run: dict, path: tuple) -> float:
     """The number at ``path`` in one bench object (NaN where that version does not report it)."""
     value = run
@@ -143,19 +184,26 @@ def table(summary: dict) -> str:
     return "\n".join(lines)
 
 
-def bench(source: Path, cycles: int, out: Path, cwd: Path, iterations: bool = False) -> dict:
-    """One ``dsmpepc bench --json`` run of the package at ``source`` (with ``iterations``, one
-    of :data:`ITERATION_PROGRAM`); its object, also saved."""
+def bench(source: Path, cycles: int, out: Path, cwd: Path, mode: str = "bench") -> dict:
+    """One ``dsmpepc bench --json`` run of the package at ``source`` (``mode`` "iterations":
+    one of :data:`ITERATION_PROGRAM`; "fresh": one of :data:`FRESH_PROGRAM`, with the child's
+    whole wall time added as ``process_ms``); its object, also saved."""
     env = dict(os.environ, PYTHONPATH=str(source))
-    command = (["-c", ITERATION_PROGRAM.replace("CYCLES", str(int(cycles)))] if iterations
-               else ["-m", "dsmpepc_nlp", "bench", "--cycles", str(cycles), "--json"])
+    command = {"iterations": ["-c", ITERATION_PROGRAM.replace("CYCLES", str(int(cycles)))],
+               "fresh": ["-c", FRESH_PROGRAM]}.get(
+        mode, ["-m", "dsmpepc_nlp", "bench", "--cycles", str(cycles), "--json"])
+    started = time.perf_counter()
     done = subprocess.run([sys.executable, *command], cwd=cwd, env=env, capture_output=True,
                           text=True, check=False)
+    elapsed_ms = 1e3 * (time.perf_counter() - started)
     if done.returncode != 0:
         raise SystemExit(f"bench failed for {source} (status {done.returncode}):\n"
                          f"{done.stderr[-2000:]}")
-    out.write_text(done.stdout)
-    return json.loads(done.stdout)
+    run = json.loads(done.stdout.strip().splitlines()[-1])
+    if mode == "fresh":
+        run["fresh"]["process_ms"] = elapsed_ms
+    out.write_text(json.dumps(run))
+    return run
 
 
 def main(argv=None) -> int:
@@ -167,7 +215,12 @@ def main(argv=None) -> int:
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
     parser.add_argument("--iterations", action="store_true",
                         help="time IPOPT an iteration instead of whole plans")
+    parser.add_argument("--fresh", action="store_true",
+                        help="time a fresh process's import and first plan instead")
     args = parser.parse_args(argv)
+    if args.iterations and args.fresh:
+        parser.error("--iterations and --fresh are two different runs: give one")
+    mode = "iterations" if args.iterations else "fresh" if args.fresh else "bench"
     if args.pairs < 1 or args.cycles < 1:
         parser.error("--pairs and --cycles must be at least 1")
     out = Path(args.out or tempfile.mkdtemp(prefix="bench-pairs-"))
@@ -179,19 +232,18 @@ def main(argv=None) -> int:
         try:
             sides = {"base": worktree, "this": REPO}
             for side, source in sides.items():
-                bench(source, args.cycles, out / f"{side}-warmup.json", Path(folder),
-                      args.iterations)
+                bench(source, args.cycles, out / f"{side}-warmup.json", Path(folder), mode)
             runs = {"base": [], "this": []}
             for k in range(args.pairs):
                 order = ("base", "this") if k % 2 == 0 else ("this", "base")
                 for side in order:
                     runs[side].append(bench(sides[side], args.cycles, out / f"{side}-{k}.json",
-                                            Path(folder), args.iterations))
+                                            Path(folder), mode))
         finally:
             subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force",
                             str(worktree)], check=False, capture_output=True)
-    summary = summarise(runs["base"], runs["this"],
-                        ITERATION_FIGURES if args.iterations else FIGURES)
+    summary = summarise(runs["base"], runs["this"], {
+        "iterations": ITERATION_FIGURES, "fresh": FRESH_FIGURES}.get(mode, FIGURES))
     if args.json:
         print(json.dumps({"base": args.base, "pairs": args.pairs, "out": str(out),
                           "figures": summary}, indent=1))
