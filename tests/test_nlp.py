@@ -4,6 +4,8 @@ The solver tests run the graph in CasADi's virtual machine on a small configurat
 solver logic does not depend on compiled code; ``test_graph.py`` holds the compiled
 functions to the virtual machine)."""
 
+import dataclasses
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -286,6 +288,41 @@ def test_the_polish_leaves_out_candidates_trailing_the_best_by_more_than_its_mar
             assert all(n % rows == 0 and one_thread for n, one_thread in batches)
 
 
+def test_scouts_walk_a_round_in_one_batch_and_the_cheapest_walks_on():
+    """``polish_scouts``: the candidates after the ``polish_starts`` walk ``scout_rounds``
+    rounds in one batch, then the ``promoted`` cheapest of them walk the rest with the others;
+    the other walks are those of the polish without scouts, so its plan is never worse."""
+    from dsmpepc_nlp.solve.polish import NEIGHBOURS
+    from dsmpepc_nlp.solve.records import StartRecord
+
+    state, world, goal = _demo_cycle()
+    cycle = Cycle.prepare(state, world, goal, CONFIG)
+    zs = [[2.0, 0.0, 0.0, 0.5], [3.0, 0.5, -0.5, 0.8], [1.0, -0.5, 0.5, 0.3],
+          [4.0, 0.2, 0.3, 0.9], [0.5, -0.2, -0.3, 0.6]]
+    records = [StartRecord(name, np.array(z), np.array(z), "screened", False, 0, 0.0, np.nan,
+                           np.nan) for name, z in zip("abcde", zs)]
+    base = SolverConfig.fast().replace(polish_margin=np.inf, polish_starts=2, polish_rounds=3,
+                                       solve_threads=1, **BUCKETS)
+    evaluator = Evaluator(cycle, base)
+    exact = evaluator.totals(np.array(zs))
+    records = [dataclasses.replace(r, exact_cost=float(c)) for r, c in zip(records, exact)]
+    rows = len(NEIGHBOURS)
+    plain = NlpSolver(CONFIG, base, SMALL).polish
+    without = plain.run(records, Evaluator(cycle, base))
+    scouting = NlpSolver(CONFIG, base.replace(polish_scouts=3, polish_scout_rounds=1,
+                                              polish_promoted=1), SMALL).polish
+    evaluator = Evaluator(cycle, base)
+    with_scouts = scouting.run(records, evaluator)
+    # the scouts' round (3 walks), then the two first seeds' three rounds beside the promoted
+    # scout's last two
+    assert evaluator.batches == [(3 * rows, False)] * 3 + [(2 * rows, False)]
+    best = min(exact)
+    assert with_scouts is not None and with_scouts.exact_cost < best
+    assert without is None or with_scouts.exact_cost <= without.exact_cost
+    seeds, _ = scouting.seeds(records, scouts=True)
+    assert len(seeds) == 5 and len(scouting.seeds(records)[0]) == 2
+
+
 def _assert_same_records(one, two):
     """Two multistarts' records equal to the bit: names, points, statuses, iterations, the
     smooth and the exact costs (NaN equal to NaN)."""
@@ -343,7 +380,8 @@ def test_polishing_ahead_on_the_idle_thread_gives_the_same_plan(monkeypatch, met
     monkeypatch.setattr(threads, "run_starts", last_start_late)
     ahead_rounds = []
     knobs = dict(n_spread=2, max_iter=4, n_screen=16, n_solved=3, solve_threads=2,
-                 polish_rounds=4, polish_margin=np.inf, **BUCKETS)   # solves stopped short
+                 polish_rounds=4, polish_margin=np.inf, polish_starts=3, polish_scouts=3,
+                 polish_promoted=1, **BUCKETS)   # solves stopped short; scouts after the walks
     make = SolverConfig.fast if method == "newton" else SolverConfig
     ahead = NlpSolver(CONFIG, make().replace(**knobs), SMALL)
     after = NlpSolver(CONFIG, make().replace(polish_ahead=False, **knobs), SMALL)

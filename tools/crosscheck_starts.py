@@ -14,6 +14,7 @@ Options change the NLP's starts only; the episode and the reference stay the com
     python tools/crosscheck_starts.py t-corridor --r-power 2      # a screen denser at small r
     python tools/crosscheck_starts.py hall --r-power 3 --r-power-share 0.5   # half of it
     python tools/crosscheck_starts.py hall --distinct 0.3         # starts kept farther apart
+    python tools/crosscheck_starts.py hall --polish-starts 10     # more candidates polished
     python tools/crosscheck_starts.py hall --rolling --memory 4   # a screen spread over cycles
     python tools/crosscheck_starts.py hall --episode paper        # the paper preset's states
 
@@ -67,6 +68,16 @@ def main() -> None:
                              "the product's, IPOPT)")
     parser.add_argument("--max-iter", type=int, default=None,
                         help="local.max_iter: the solver's iteration cap for every start")
+    parser.add_argument("--polish-starts", type=int, default=None,
+                        help="candidates the exact polish walks from (default: the solver's)")
+    parser.add_argument("--polish-margin", type=float, default=None,
+                        help="how far behind the best a candidate may trail and be polished")
+    parser.add_argument("--polish-rounds", type=int, default=None)
+    parser.add_argument("--polish-scouts", type=int, default=None,
+                        help="candidates after the polished ones walked a round or two")
+    parser.add_argument("--polish-scout-rounds", type=int, default=None)
+    parser.add_argument("--polish-promoted", type=int, default=None,
+                        help="scouts, the cheapest after their rounds, walked to the end")
     parser.add_argument("--distinct", type=float, default=None,
                         help="multistart.distinct: how far apart (share of the box) starts are")
     parser.add_argument("--oracle", action="store_true",
@@ -118,6 +129,10 @@ def main() -> None:
         solver = solver.replace(distinct=args.distinct)
     if args.max_iter is not None:
         solver = solver.replace(max_iter=args.max_iter)
+    for name in ("polish_starts", "polish_margin", "polish_rounds", "polish_scouts",
+                 "polish_scout_rounds", "polish_promoted"):
+        if getattr(args, name) is not None:
+            solver = solver.replace(**{name: getattr(args, name)})
     nlp = Planner(config, solver)
     nlp.prepare()
     if args.r_power != 1.0:

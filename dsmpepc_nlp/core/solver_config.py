@@ -115,9 +115,19 @@ class PolishSettings:
     """Candidates whose exact cost trails the best one's by more than this are not polished
     (``inf``: every one of the ``starts``): no polish gain measured ever came near it
     (docs/nlp.md, "Pass 6")."""
+    scouts: int = 0
+    """Distinct candidates after the ``starts`` (the same order and margin) walked only
+    ``scout_rounds`` rounds, in one batch, before the best ``promoted`` of them walk the rest
+    with the others: a basin ranked below the ``starts`` is often found by its first round or
+    two (docs/nlp.md, "Scouts"). 0: none."""
+    scout_rounds: int = 2
+    """Rounds every scout walks before the best are promoted."""
+    promoted: int = 2
+    """Scouts, the cheapest after their rounds, that walk all ``rounds``."""
 
     def __post_init__(self):
-        check_integers(self, {"rounds": 0, "starts": 1})
+        check_integers(self, {"rounds": 0, "starts": 1, "scouts": 0, "scout_rounds": 1,
+                              "promoted": 0})
         validate_fields(self, {"step": dict(low=0.0, high=1.0),
                                "margin": dict(low=0.0, allow_inf=True)})
 

@@ -76,17 +76,18 @@ class Polish:
         norm): the starts solved from and the polish's seeds are kept that far apart."""
         return bool(np.max(np.abs(a - b) / self.span) > self.solver.multistart.distinct)
 
-    def seeds(self, records) -> tuple:
+    def seeds(self, records, scouts: bool = False) -> tuple:
         """``(seeds, best)``: the best distinct candidates the polish starts from, cheapest
-        first (at most ``polish_starts``, none trailing the best by more than
-        ``polish_margin``), and the best exact cost of all."""
+        first (at most ``polish_starts``, with ``scouts`` also ``polish_scouts`` more, none
+        trailing the best by more than ``polish_margin``), and the best exact cost of all."""
         finite = sorted((r for r in records if math.isfinite(r.exact_cost)),
                         key=lambda r: r.exact_cost)
         if not finite:
             return [], math.inf
+        count = self.settings.starts + (self.settings.scouts if scouts else 0)
         seeds = []
         for record in finite:       # cheapest first
-            if (len(seeds) == self.settings.starts
+            if (len(seeds) == count
                     or record.exact_cost > finite[0].exact_cost + self.settings.margin):
                 break
             if all(self.distinct(record.z, s.z) for s in seeds):
@@ -134,11 +135,13 @@ class Polish:
         walks run ahead where their seed is still a seed); the record ``polish`` of the best
         walk, or None when it finds nothing better than every candidate (or is off)."""
         rounds = self.settings.rounds
-        seeds, best = self.seeds(records)
+        seeds, best = self.seeds(records, scouts=True)
         if rounds == 0 or not seeds:
             return None
         started = time.perf_counter()
         walks = [self.walk(seed, {} if walks is None else walks) for seed in seeds]
+        walks = walks[:self.settings.starts] + self.scout(walks[self.settings.starts:],
+                                                          evaluator)
         self.finish(walks, evaluator)
         winner = min(walks, key=lambda w: w.cost)       # the first of equals, as argmin
         if not winner.cost < best:
@@ -147,6 +150,18 @@ class Polish:
         return StartRecord("polish", origin.z, winner.z, f"polished '{origin.name}'",
                            any(r.success for r in records), rounds,
                            time.perf_counter() - started, math.nan, winner.cost)
+
+    def scout(self, scouts, evaluator) -> list:
+        """The scouts' first ``scout_rounds`` rounds, all of them in one exact batch a round
+        (shared over the cores as any batch is); the ``promoted`` cheapest after them, in
+        their seeds' order, to be walked to the end with the other walks."""
+        if not scouts:
+            return []
+        first = min(self.settings.scout_rounds, self.settings.rounds)
+        while active := [w for w in scouts if w.rounds < first]:   # some may have run ahead
+            self.round(active, evaluator)
+        order = sorted(range(len(scouts)), key=lambda k: scouts[k].cost)
+        return [scouts[k] for k in sorted(order[:self.settings.promoted])]
 
     def finish(self, walks, evaluator) -> None:
         """Every walk's remaining rounds. With several walks left and ``solve_threads``
