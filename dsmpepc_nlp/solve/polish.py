@@ -4,7 +4,9 @@ After the solves, the best distinct candidates (solved or screened, by exact cos
 walked on a grid: a round costs the 24 neighbours of the walk's point (a step along one
 variable, or along all four at once) in one exact batch, keeps the best if it is better, and
 halves the step. It reaches basins next to the candidates that the solves stopped short of, and
-the exact optimum where the smooth one is near, not at, it (docs/nlp.md, "Pass 6").
+the exact optimum where the smooth one is near, not at, it (docs/nlp.md, "Pass 6"). The
+candidates after those (scouts) walk a round or two, and the cheapest of them walk on: the exact
+best often lies next to a candidate ranked below the first few (docs/nlp.md, "Scouts").
 
 A walk depends only on its seed and every row is costed as it would be alone, so a walk ends
 the same wherever its rounds run: ahead, on the thread the solves leave idle
