@@ -15,12 +15,19 @@ Options change the NLP's starts only; the episode and the reference stay the com
     python tools/crosscheck_starts.py hall --r-power 3 --r-power-share 0.5   # half of it
     python tools/crosscheck_starts.py hall --distinct 0.3         # starts kept farther apart
     python tools/crosscheck_starts.py hall --polish-starts 10     # more candidates polished
+    python tools/crosscheck_starts.py hall --polish-starts 16 --polish-scouts 0 --walk-ranks 5
     python tools/crosscheck_starts.py hall --rolling --memory 4   # a screen spread over cycles
     python tools/crosscheck_starts.py hall --episode paper        # the paper preset's states
 
 ``--rolling`` screens the next ``n_screen`` points of the screen's 4096-point sequence each
 cycle (the reference's sequence is another seed's); ``--memory M`` adds the last plan's M
 cheapest distinct ends (solved or screened) as named starts, unchanged in the new frame.
+
+``--walk-ranks K`` records every polish walk's exact cost after each of its rounds and prints in
+how many plans the best walk came from a seed ranked after the K-th (cheapest first) and beat the
+first K walks by more than 0.01, the ranks of those seeds, and after which round each of them
+already led the walks ranked after the K-th (docs/nlp.md, "Scouts": with 16 seeds and no scouts,
+how many rounds tell which low-ranked seed is worth walking).
 
 ``--time`` also plans every cycle with the default NLP beside it and prints both plan-time
 medians and their ratio (the same process, alternating cycle by cycle). ``--time-episodes``
@@ -57,6 +64,54 @@ EXTRA = {
 }
 
 
+def record_walks(polish) -> list:
+    """Make ``polish`` (one planner's :class:`~dsmpepc_nlp.solve.polish.Polish`) keep every
+    walk's exact cost after each of its own rounds (those run ahead on the idle thread too);
+    the list that gets, per plan, one ``{round: cost}`` per walk of the final polish, in its
+    seeds' order (cheapest first)."""
+    log, costs = [], {}
+    walk_round, finish, reset = polish.round, polish.finish, polish.reset
+
+    def round_(walks, evaluator, one_thread=False):
+        walk_round(walks, evaluator, one_thread)
+        for walk in walks:
+            costs.setdefault(id(walk), {})[walk.rounds] = walk.cost
+
+    def finish_(walks, evaluator):
+        finish(walks, evaluator)
+        log.append([dict(costs.get(id(walk), {})) for walk in walks])
+
+    def reset_():
+        costs.clear()
+        reset()
+
+    polish.round, polish.finish, polish.reset = round_, finish_, reset_
+    return log
+
+
+def rank_lines(log: list, k: int) -> list:
+    """The lines of ``--walk-ranks``: which seeds past the ``k``-th won, and after which of its
+    own rounds the winner led the seeds past the ``k``-th."""
+    ranks, leads = {}, {}
+    for walks in log:
+        if len(walks) <= k or not all(walks):
+            continue
+        final = np.array([w[max(w)] for w in walks])
+        winner = int(np.argmin(final))
+        if winner < k or not final[winner] < final[:k].min() - 0.01:
+            continue
+        ranks[winner + 1] = ranks.get(winner + 1, 0) + 1
+        for round_ in sorted(walks[winner]):
+            if int(np.argmin([w[round_] for w in walks[k:]])) + k == winner:
+                leads[round_] = leads.get(round_, 0) + 1
+                break
+    return [f"plans polished: {len(log)}; won by a seed ranked after the {k}th by more than "
+            f"0.01: {sum(ranks.values())}",
+            "  its rank (1: cheapest) -> plans: " + str(dict(sorted(ranks.items()))),
+            f"  its own round after which it led the seeds ranked after the {k}th -> plans: "
+            + str(dict(sorted(leads.items())))]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenario")
@@ -78,6 +133,8 @@ def main() -> None:
     parser.add_argument("--polish-scout-rounds", type=int, default=None)
     parser.add_argument("--polish-promoted", type=int, default=None,
                         help="scouts, the cheapest after their rounds, walked to the end")
+    parser.add_argument("--walk-ranks", type=int, default=None, metavar="K",
+                        help="which polish seeds ranked after the K-th win, and when they lead")
     parser.add_argument("--distinct", type=float, default=None,
                         help="multistart.distinct: how far apart (share of the box) starts are")
     parser.add_argument("--oracle", action="store_true",
@@ -135,6 +192,7 @@ def main() -> None:
             solver = solver.replace(**{name: getattr(args, name)})
     nlp = Planner(config, solver)
     nlp.prepare()
+    walk_log = None if args.walk_ranks is None else record_walks(nlp.nlp.polish)
     if args.r_power != 1.0:
         inner = nlp.nlp
         unit = (inner.screen - inner.lower) / (inner.upper - inner.lower)
@@ -188,6 +246,8 @@ def main() -> None:
     share = 1.0 - len(misses) / len(cycles)
     print(f"{args.scenario}: {len(misses)} of {len(cycles)} cycles missed, {100 * share:.1f} % "
           f"within 0.01")
+    if walk_log is not None:
+        print("\n".join(rank_lines(walk_log, args.walk_ranks)))
     if default_times:
         a, b = np.median(times), np.median(default_times)
         print(f"plan time median {1e3 * a:.1f} ms against the default's {1e3 * b:.1f} ms "
