@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from test_failures import DT, make_episode, standing
 
-from dsmpepc_nlp.bench import escape
+from dsmpepc_nlp.bench import escape, failure_report
 from dsmpepc_nlp.bench.failure_report import classify_folder
 from dsmpepc_nlp.bench.results import ResultTable, keep_failure
 from dsmpepc_nlp.core.errors import InputError
@@ -88,3 +88,22 @@ def test_the_folder_report_counts_the_ways_out(tmp_path):
     report = classify_folder(tmp_path, escape=True)
     assert report["escapes"] == {"forward": 1, "none": 1}
     assert {f["evidence"]["escape"] for f in report["failures"]} == {"forward", "none"}
+    for i in range(2, 4):                                   # two runs that succeeded
+        table.add({"episode": i, "outcome": "success"})
+    report = classify_folder(tmp_path, escape=True)
+    assert report["no_way_out"] == 1                        # the walker 0.65 m off at 1.5 m/s
+    assert report["bound_given_path"] == pytest.approx(0.75)
+    assert "no_way_out" not in classify_folder(tmp_path)
+
+
+def test_the_bound_counts_only_exhaustive_searches_and_never_free_goals():
+    def failure(escape=None, exhaustive=True, free_at="absent"):
+        evidence = {} if escape is None else {"escape": escape, "escape_exhaustive": exhaustive}
+        if free_at != "absent":
+            evidence["goal_free_at"] = free_at
+        return {"evidence": evidence}
+
+    failures = [failure("none"), failure("none", exhaustive=False), failure("forward"),
+                failure(free_at=None)]
+    bound = failure_report._bound_given_path(failures, never=1, runs=10)
+    assert bound == {"no_way_out": 1, "bound_given_path": pytest.approx(0.8)}

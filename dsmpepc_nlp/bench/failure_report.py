@@ -112,10 +112,23 @@ def classify_folder(out_dir, escape: bool = False) -> dict:
                 for f in failures)
     if never:
         report["goal_never_free"] = never
+    if escape and n_rows:
+        report.update(_bound_given_path(failures, never, n_rows))
     return {**report,
             "counts": {name: counts[name] for name in CLASSES if counts[name]},
             "unclassified": len(unclassified), "failures": failures,
             "unclassified_runs": unclassified}
+
+
+def _bound_given_path(failures, never: int, runs: int) -> dict:
+    """``no_way_out``: collisions the exhaustive escape search found no way out of (from when
+    the person touched set off, or :data:`~.escape.LOOKBACK` before the contact); with the runs
+    whose goal was never free, no robot that had driven as this one did until then could have
+    won them, so ``bound_given_path`` = 1 - (both) / ``runs`` bounds such a robot's success.
+    Not a bound for a robot that drove elsewhere earlier."""
+    none = sum(f["evidence"].get("escape") == "none" and f["evidence"].get("escape_exhaustive")
+               is True for f in failures)
+    return {"no_way_out": none, "bound_given_path": 1.0 - (none + never) / runs}
 
 
 def stuck_panels(episode, failure: dict, n_samples: int = PANEL_SAMPLES):
@@ -159,6 +172,10 @@ def markdown(report: dict) -> str:
         lines += ["", "Collisions by their narrowest way out within the robot's limits, against "
                   "the logged people (`--escape`):", "", "| way out | collisions |", "|---|---|"]
         lines += [f"| {name} | {n} |" for name, n in report["escapes"].items()]
+    if "bound_given_path" in report:
+        lines += ["", f"No way out of {report['no_way_out']} collisions (an exhaustive search); "
+                  f"with the goals never free, a robot that drove as this one did until then "
+                  f"succeeds in at most {report['bound_given_path']:.2f} of the runs."]
     for name in report["counts"]:
         lines += ["", f"## {name}", ""]
         if any(Path(f).name == f"{REPORT}-{name}.png" for f in report.get("figures", [])):
@@ -213,6 +230,8 @@ def run(args) -> int:
         found = ", ".join(f"{k} {n}" for k, n in report["escapes"].items())
         print("collisions by their narrowest way out (forward only, the rung's reverse, a full-"
               f"speed reverse, none): {found}")
+        print(f"success bound given the path (no way out {report['no_way_out']}, goal never "
+              f"free {report.get('goal_never_free', 0)}): {report['bound_given_path']:.2f}")
     print(f"report: {folder / (REPORT + '.json')}, {folder / (REPORT + '.md')}")
     for path in report["figures"]:
         print(f"figure: {path}")
