@@ -175,7 +175,7 @@ def markdown(report: dict) -> str:
     if "bound_given_path" in report:
         lines += ["", f"No way out of {report['no_way_out']} collisions (an exhaustive search); "
                   f"with the goals never free, a robot that drove as this one did until then "
-                  f"succeeds in at most {report['bound_given_path']:.2f} of the runs."]
+                  f"succeeds in at most {report['bound_given_path']:.3f} of the runs."]
     for name in report["counts"]:
         lines += ["", f"## {name}", ""]
         if any(Path(f).name == f"{REPORT}-{name}.png" for f in report.get("figures", [])):
@@ -231,7 +231,7 @@ def run(args) -> int:
         print("collisions by their narrowest way out (forward only, the rung's reverse, a full-"
               f"speed reverse, none): {found}")
         print(f"success bound given the path (no way out {report['no_way_out']}, goal never "
-              f"free {report.get('goal_never_free', 0)}): {report['bound_given_path']:.2f}")
+              f"free {report.get('goal_never_free', 0)}): {report['bound_given_path']:.3f}")
     print(f"report: {folder / (REPORT + '.json')}, {folder / (REPORT + '.md')}")
     for path in report["figures"]:
         print(f"figure: {path}")
