@@ -70,6 +70,19 @@ def test_the_markdown_has_a_line_per_preset_and_says_what_was_not_classified(tmp
     assert paper.startswith("|  | paper | 0.000 |") and paper.endswith("| 0 (p = 1) |")
 
 
+def test_a_folder_searched_for_ways_out_gets_a_line_of_the_bound_table(tmp_path, tool):
+    folder(tmp_path, "ci-product", [crowd_row(0, "success", time=10.0), crowd_row(1, "timeout")])
+    folder(tmp_path, "ci-paper", [crowd_row(0, "timeout"), crowd_row(1, "timeout")])
+    report = {"runs": 2, "no_way_out": 0, "goal_never_free": 1, "bound_given_path": 0.5,
+              "failures": []}
+    (tmp_path / "ci-product" / "failures.json").write_text(json.dumps(report))
+    table = tool("results_table")
+    text = table.markdown(table.navigation(table.pairs(tmp_path)), [])
+    assert "| success at most, given the path |" in text
+    assert "| CrowdNav circle invisible, 2 | product | 0.500 | 0 | 1 | 0.500 (2 runs) |" in text
+    assert "| paper | 0.000 | 0 |" not in text                   # not searched: no line
+
+
 def test_a_product_folder_without_its_paper_folder_is_refused(tmp_path, tool):
     folder(tmp_path, "ci-product", [crowd_row(0, "success", time=10.0)])
     with pytest.raises(SystemExit, match="no <name>-product folder with its <name>-paper"):

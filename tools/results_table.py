@@ -8,7 +8,9 @@ make them). Prints one markdown table of the navigation benchmarks (``dsmpepc be
 struck), timeout, deadlock, mean time to goal and path length of the successes, plan time
 (median over runs of each run's median, 95th percentile of their 95th percentiles), the failure
 classes (``<out>/failures.json``, written by ``dsmpepc failures OUT``) and the cases only that
-preset wins, with the two-sided sign test (``tools/paired.py``). Then a table of the built-in
+preset wins, with the two-sided sign test (``tools/paired.py``). Where a folder was classified
+with ``--escape``, a second table: the collisions no way out existed from, the goals never free
+and the success they leave a robot that drove the same way. Then a table of the built-in
 scenarios (``dsmpepc benchmark scenarios``), run by run::
 
     python tools/results_table.py ROOT
@@ -78,6 +80,20 @@ def classes(folder: Path, key: str, cases: set) -> dict | None:
     return {name: counts[name] for name in CLASSES if counts[name]}
 
 
+def bound(folder: Path) -> dict | None:
+    """What ``dsmpepc failures OUT --escape`` counted in ``folder``: the collisions with no way
+    out, the goals never free and the success they leave a robot that drove the same way
+    (``bound_given_path``, over the report's ``runs``); None when it was not searched."""
+    path = folder / f"{REPORT}.json"
+    if not path.exists():
+        return None
+    report = json.loads(path.read_text(encoding="utf-8"))
+    if "bound_given_path" not in report:
+        return None
+    return {k: report.get(k, 0) for k in ("runs", "no_way_out", "goal_never_free",
+                                          "bound_given_path")}
+
+
 def figures_of(stem: str, rows: list, cases: set) -> dict:
     """Rates, means and plan times of DS-MPEPC's rows of one table, on ``cases`` (the cases
     both presets ran: ``world`` for BARN, ``episode`` otherwise)."""
@@ -123,6 +139,7 @@ def navigation(found) -> list:
         for preset in PRESETS:
             figures = figures_of(stem, loaded[preset][2], cases)
             figures["classes"] = classes(folders[preset], case_key(stem), cases)
+            figures["bound"] = bound(folders[preset])
             entry["presets"][preset] = figures
         entry["label"] = label(stem, meta, len(cases))
         entry["only"] = {"product": paired["only_a"], "paper": paired["only_b"]}
@@ -175,6 +192,16 @@ def markdown(nav: list, scen: list) -> str:
                 f"{_num(s['plan_time_median'], 0, 1e3)} / {_num(s['plan_time_p95'], 0, 1e3)} | "
                 f"{_classes(s['classes'])} | {len(only)}"
                 + (f" (p = {entry['p']:.2g})" if preset == "paper" else "") + " |")
+    bounds = [(entry["label"], preset, entry["presets"][preset]) for entry in nav
+              for preset in PRESETS if entry["presets"][preset]["bound"]]
+    if bounds:
+        lines += ["", "| benchmark | preset | success | collisions with no way out | goals never "
+                  "free | success at most, given the path |", "|---|---|---|---|---|---|"]
+        for name, preset, s in bounds:
+            b = s["bound"]
+            lines.append(f"| {name} | {preset} | {_num(s['success_rate'], 3)} | "
+                         f"{b['no_way_out']} | {b['goal_never_free']} | "
+                         f"{_num(b['bound_given_path'], 3)} ({b['runs']} runs) |")
     if scen:
         lines += ["", "| scenario | variant | product | paper |", "|---|---|---|---|"]
         for r in scen:
