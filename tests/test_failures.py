@@ -349,6 +349,13 @@ def test_the_figure_says_when_the_goal_first_freed():
     assert "goal_free_at" not in _text({"goal_occupied_share": 1.0})
 
 
+def test_the_figure_says_whether_a_collision_had_a_way_out():
+    from dsmpepc_nlp.viz.failures import _text
+
+    assert _text({"contact_age": 0.0, "escape": "none", "escape_from": 4.6}).splitlines() == [
+        "contact_age: 0.00", "escape: none"]
+
+
 def test_the_command_refuses_a_folder_without_a_table(tmp_path, capsys):
     assert main(["failures", str(tmp_path)]) == 2
     assert "no benchmark table" in capsys.readouterr().err

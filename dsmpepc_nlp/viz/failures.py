@@ -21,7 +21,7 @@ from ..sim.outcomes import OutcomeConfig
 from .plots import _footprint, _limits, draw_cost_panel, draw_map, on_stage
 
 EVIDENCE_KEYS = ("collision_kind", "touched", "robot_speed", "approach_speed", "contact_age",
-                 "net_displacement", "path_in_window", "reversals", "goal_distance",
+                 "escape", "net_displacement", "path_in_window", "reversals", "goal_distance",
                  "goal_occupied_share", "goal_person_distance", "person_gap", "person_speed",
                  "gap_width", "robot_width")
 """Evidence printed in a scene, in this order (those the class has)."""
