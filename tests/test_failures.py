@@ -125,6 +125,26 @@ def test_struck_by_a_walker_who_appeared_moments_before_is_appeared_in_reach():
     assert f.evidence["collision_kind"] == "struck"            # the benchmark's kind is kept
 
 
+def test_the_scene_draws_the_person_touched_where_they_were_at_the_contact():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from dsmpepc_nlp.viz.failures import draw_scene
+
+    n = 12                              # on stage only at the contact: not at the stuck cycle
+    episode = make_episode(standing(n), "collision", peds=_appearing(n, n - 1))
+    failure = classify(episode).to_dict()
+    fig, ax = plt.subplots()
+    try:
+        draw_scene(ax, episode, failure, "appeared")
+        outlines = [p for p in ax.patches if not p.get_fill()]
+        assert len(outlines) == 1 and outlines[0].get_linestyle() == "--"
+        assert tuple(outlines[0].center) == pytest.approx(tuple(episode.ped_positions[n - 1, 0]))
+    finally:
+        plt.close(fig)
+
+
 def test_a_walker_seen_for_longer_than_the_threshold_is_not_appeared_in_reach():
     n = 12
     f = classify(make_episode(standing(n), "collision", peds=_appearing(n, n - 8)))

@@ -69,6 +69,12 @@ def draw_scene(ax, episode, failure: dict, label: str, evidence: bool = True) ->
         ax.plot([x0, x1], [y0, y1], color="magenta", lw=2, zorder=5)
     if failure["outcome"] == "collision":
         ax.plot(*episode.states[robot, end, :2], marker="*", color="black", ms=14, zorder=6)
+        if person is not None and 0 <= int(person) < len(episode.ped_radii):
+            # where the touched person was at the contact: one who appeared there is not on
+            # stage at the stuck cycle and would otherwise not be drawn at all
+            ax.add_patch(Circle(episode.ped_positions[end, int(person)],
+                                episode.ped_radii[int(person)], fill=False, ls="--", lw=1.5,
+                                color="darkred", zorder=6))
     _limits(episode, ax)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
@@ -88,6 +94,8 @@ LEGEND = (Line2D([], [], color="tab:blue", lw=1.2, label="robot path"),
                  label="robot at stuck cycle"),
           Line2D([], [], color="tab:red", marker="o", ls="-", lw=0.8, label="people and paths"),
           Line2D([], [], color="darkred", marker="o", ls="", label="person in evidence"),
+          Line2D([], [], color="darkred", marker="o", ls="", mfc="none", ms=10,
+                 label="person touched, at the contact"),
           Line2D([], [], color="magenta", lw=2, label="narrowest gap"),
           Line2D([], [], color="black", marker="*", ls="", ms=10, label="contact"))
 
