@@ -68,27 +68,28 @@ def table(folder: Path) -> tuple:
     return stem, meta, rows
 
 
-def classes(folder: Path, key: str, cases: set) -> dict | None:
-    """Counts per failure class of ``folder`` (``dsmpepc failures``'s report) over ``cases``
-    (the ``key`` values both presets ran); None when the folder was not classified."""
+def report_of(folder: Path) -> dict | None:
+    """``dsmpepc failures``'s report of ``folder`` (``failures.json``); None when the folder
+    was not classified."""
     path = folder / f"{REPORT}.json"
-    if not path.exists():
+    return json.loads(path.read_text(encoding="utf-8")) if path.exists() else None
+
+
+def classes(report: dict | None, key: str, cases: set) -> dict | None:
+    """Counts per failure class of a folder's ``report`` over ``cases`` (the ``key`` values
+    both presets ran); None when the folder was not classified."""
+    if report is None:
         return None
-    failures = json.loads(path.read_text(encoding="utf-8"))["failures"]
     shared = {f"{key}={case}" for case in cases}      # a label holds e.g. "episode=12"
-    counts = Counter(f["class"] for f in failures if shared & set(f["label"].split()))
+    counts = Counter(f["class"] for f in report["failures"] if shared & set(f["label"].split()))
     return {name: counts[name] for name in CLASSES if counts[name]}
 
 
-def bound(folder: Path) -> dict | None:
-    """What ``dsmpepc failures OUT --escape`` counted in ``folder``: the collisions with no way
-    out, the goals never free and the success they leave a robot that drove the same way
+def bound(report: dict | None) -> dict | None:
+    """What ``dsmpepc failures OUT --escape`` counted: the collisions with no way out, the
+    goals never free and the success they leave a robot that drove the same way
     (``bound_given_path``, over the report's ``runs``); None when it was not searched."""
-    path = folder / f"{REPORT}.json"
-    if not path.exists():
-        return None
-    report = json.loads(path.read_text(encoding="utf-8"))
-    if "bound_given_path" not in report:
+    if report is None or "bound_given_path" not in report:
         return None
     return {k: report.get(k, 0) for k in ("runs", "no_way_out", "goal_never_free",
                                           "bound_given_path")}
@@ -138,8 +139,9 @@ def navigation(found) -> list:
         entry = {"name": name, "presets": {}}
         for preset in PRESETS:
             figures = figures_of(stem, loaded[preset][2], cases)
-            figures["classes"] = classes(folders[preset], case_key(stem), cases)
-            figures["bound"] = bound(folders[preset])
+            report = report_of(folders[preset])
+            figures["classes"] = classes(report, case_key(stem), cases)
+            figures["bound"] = bound(report)
             entry["presets"][preset] = figures
         entry["label"] = label(stem, meta, len(cases))
         entry["only"] = {"product": paired["only_a"], "paper": paired["only_b"]}
