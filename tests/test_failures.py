@@ -374,6 +374,8 @@ def test_the_figure_says_whether_a_collision_had_a_way_out():
 
     assert _text({"contact_age": 0.0, "escape": "none", "escape_from": 4.6}).splitlines() == [
         "contact_age: 0.00", "escape: none"]
+    searched = _text({"escape": "not searched: the pedestrians of this run react to the robot"})
+    assert searched == "escape: not searched"          # the reason stays in failures.md
 
 
 def test_the_command_refuses_a_folder_without_a_table(tmp_path, capsys):

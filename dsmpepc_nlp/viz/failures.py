@@ -32,6 +32,8 @@ def _text(evidence: dict) -> str:
     for key in EVIDENCE_KEYS:
         if key in evidence and evidence[key] is not None:
             value = evidence[key]
+            if key == "escape":     # "not searched: <why>" is a sentence: the box keeps its head
+                value = str(value).split(":")[0]
             lines.append(f"{key}: {value:.2f}" if isinstance(value, float) else f"{key}: {value}")
     if "goal_free_at" in evidence:  # a replay's draw: None, no planner could have arrived
         free = evidence["goal_free_at"]
