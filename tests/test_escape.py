@@ -11,6 +11,7 @@ from dsmpepc_nlp.bench.failure_report import classify_folder
 from dsmpepc_nlp.bench.results import ResultTable, keep_failure
 from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.world import OccupancyGrid
+from dsmpepc_nlp.sim.episode import Episode
 
 
 def walker(start, velocity, n):
@@ -94,6 +95,12 @@ def test_the_folder_report_counts_the_ways_out(tmp_path):
     assert report["no_way_out"] == 1                        # the walker 0.65 m off at 1.5 m/s
     assert report["bound_given_path"] == pytest.approx(0.75)
     assert "no_way_out" not in classify_folder(tmp_path)
+    for i in range(2):                                      # people who react: no search
+        ep = Episode.load(tmp_path / f"episodes/e{i}.npz")
+        ep.meta["scenario"] = "crowdnav-circle-visible-0-3"
+        ep.save(tmp_path / f"episodes/e{i}.npz")
+    report = classify_folder(tmp_path, escape=True)
+    assert report["escapes"] == {"not searched": 2} and "bound_given_path" not in report
 
 
 def test_the_bound_counts_only_exhaustive_searches_and_never_free_goals():

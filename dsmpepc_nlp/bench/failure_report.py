@@ -112,7 +112,9 @@ def classify_folder(out_dir, escape: bool = False) -> dict:
                 for f in failures)
     if never:
         report["goal_never_free"] = never
-    if escape and n_rows:
+    searched = all(not str(f["evidence"].get("escape", "")).startswith("not searched")
+                   for f in failures)
+    if escape and n_rows and searched:     # where people react no search, so no bound
         report.update(_bound_given_path(failures, never, n_rows))
     return {**report,
             "counts": {name: counts[name] for name in CLASSES if counts[name]},
