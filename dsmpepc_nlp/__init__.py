@@ -7,6 +7,7 @@ from .core.config import (
     DockingConfig,
     HorizonConfig,
     PlannerConfig,
+    PredictionConfig,
     RobotConfig,
     RobotState,
     StallConfig,
@@ -30,7 +31,7 @@ __all__ = [
     "BoundsConfig", "ControlLawConfig", "CostBreakdown", "CostConfig", "DockingConfig",
     "DynamicObstacle", "HorizonConfig", "InputError", "LocalSolverSettings", "MultistartSettings",
     "NavigationFunction", "OccupancyGrid", "ParallelSettings", "Plan", "Planner", "PlannerConfig",
-    "PolishSettings", "RobotConfig", "RobotState", "SmoothingConfig", "SolverConfig",
-    "StallConfig", "StartRecord", "Trajectory", "World", "__version__", "evaluate", "rollout",
-    "rollout_function",
+    "PolishSettings", "PredictionConfig", "RobotConfig", "RobotState", "SmoothingConfig",
+    "SolverConfig", "StallConfig", "StartRecord", "Trajectory", "World", "__version__",
+    "evaluate", "rollout", "rollout_function",
 ]

@@ -26,6 +26,7 @@ from .sampling import SamplingPlanner
 from .stall import StallMonitor
 from .start_state import as_state, start_overlap
 from .starts import clip_to_bounds, structured_starts
+from .tracking import SpeedingUp
 
 FALLBACK_STATUSES = ("sampling-fallback", "stopped")
 """Statuses of a plan the chosen solver did not deliver."""
@@ -92,6 +93,7 @@ class Planner:
         self._previous_target = None
         self._fallbacks, self._warned = 0, False
         self.stall = StallMonitor(self.config)
+        self.speeding_up = SpeedingUp(self.config)
         self.last_evaluator = None
 
     def prepare(self, max_objects: int | None = None) -> dict:
@@ -125,6 +127,7 @@ class Planner:
         self._previous_target = None
         self._fallbacks, self._warned = 0, False
         self.stall.reset()
+        self.speeding_up.reset()
 
     def plan(self, state: RobotState, world: World, goal, *, dock: bool = True,
              sample: bool = False, goal_tolerance: float = 0.0) -> Plan:
@@ -181,6 +184,8 @@ class Planner:
         trouble = []
         level = self._try(trouble, "the stall monitor", self.stall.update, state, goal) or 0
         config = self.stall.config_for(level)
+        world = self._try(trouble, "the walkers' speeds", self.speeding_up.update, world) \
+            or world
         starts = self._try(trouble, "the starts", structured_starts, state, goal, self.config,
                           self._previous_target, self.solver) or {}
         cycle = self._try(trouble, "the cycle", Cycle.prepare, state, world, goal, config)
