@@ -56,6 +56,7 @@ import numpy as np
 from ..core.config import PlannerConfig, RobotConfig, RobotState
 from ..core.errors import InputError
 from ..core.solver_config import SolverConfig
+from ..sim.episode import config_to_dict
 from ..sim.metrics import DISCOMFORT_GAP, swept_contact_time
 from ..sim.outcomes import OutcomeConfig
 from ..sim.simulate import simulate
@@ -350,6 +351,11 @@ def simulate_episode(settings: CrowdNavSettings, variant: str, episode: int, see
         config, horizon=dataclasses.replace(config.horizon, dt=TIME_STEP))
     log = simulate(scenario, loop_config, solver, np.random.default_rng([seed, episode]),
                    planner_factory=factory, outcomes=OutcomeConfig(deadlock=False), **kwargs)
+    # The episode's configuration is the one its planner planned with (0.2 s steps); the
+    # loop's 0.25 s is the episode's ``dt``. What re-costs a logged cycle and the escape
+    # search's acceleration per step (accel_limit * plan step) read the planner's.
+    planned = config_to_dict(dataclasses.replace(loop_config, horizon=config.horizon))
+    log = dataclasses.replace(log, meta={**log.meta, "config": planned})
     return with_swept_contact(log), crowd
 
 
