@@ -1,14 +1,18 @@
-"""What the robot planned, cycle by cycle, in one CrowdNav episode: each plan's speed over its
-horizon beside what the robot then did.
+"""What the robot planned, cycle by cycle, in one CrowdNav episode: each plan's speed and
+survivability over its horizon, its stall level and the turn rung's best offer, beside what the
+robot then did.
 
-Benchmarks keep no plan trajectories (their episodes are small); this re-runs one CrowdNav
-episode with them (deterministic: the benchmark's outcome and time come back) and prints, at
-each ``--at`` time, the robot's state, the plan's z, status and exact cost, the plan's speed
-every 0.4 s of its horizon, its survivability at the horizon's end, and the speed the robot
-then drove at. It is how docs/results.md reads a stall
-where every plan creeps first and speeds up late, and each next plan puts the burst off::
+Benchmarks keep no plans, so this runs the episode (deterministic: the benchmark's outcome and
+time come back), then replays a fresh planner over the states and people it logged, cycle by
+cycle, and checks that every replayed plan's z is the logged one (``replayed``). At each
+``--at`` time it prints the robot's state, the plan's z, status, exact cost and stall level,
+its speed every 0.4 s and survivability every 0.6 s of the horizon and at its end, the exact
+cost of the cheapest of the stall ladder's turns in place (turn, then the law; ``turn_cost``;
+whether the ladder offers them then or not), and the speed the robot then drove at. It is how
+docs/results.md reads a stall where every plan creeps first and speeds up late, each next plan
+putting the burst off::
 
-    python tools/plan_profile.py --scene square --seed 0 --episode 385 --at 20 20.5 21 21.5
+    python tools/plan_profile.py --scene square --seed 0 --episode 385 --at 20 20.5 21
     python tools/plan_profile.py --scene square --seed 0 --episode 385 --at 20 --set stall.levels=5
 """
 
@@ -19,43 +23,55 @@ import json
 
 import numpy as np
 
-from dsmpepc_nlp.bench.crowdnav import (
-    SCENES,
-    SETTINGS,
-    TIME_STEP,
-    CrowdNavSettings,
-    simulate_episode,
-)
-from dsmpepc_nlp.bench.params import overrides, planner_config
+from dsmpepc_nlp.bench.crowdnav import SCENES, SETTINGS, CrowdNavSettings, simulate_episode
+from dsmpepc_nlp.bench.params import named_solver, overrides
+from dsmpepc_nlp.core.exact_cost import evaluate
+from dsmpepc_nlp.solve import backup
+from dsmpepc_nlp.solve.planner import Planner
 
 EVERY = 0.4
 """s between the speeds printed of a plan."""
+SURVIVAL_EVERY = 0.6
+"""s between the survivabilities printed of a plan."""
+
+
+def _rounded(values, step: int) -> list:
+    return [round(float(v), 3) for v in np.asarray(values)[::max(1, step)]]
+
+
+def turn_cost(plan, state, goal, cycle) -> float:
+    """The exact cost of the cheapest of the stall ladder's turns in place against ``plan``."""
+    turns = backup.turn_trajectories(plan, state, goal, cycle.config)
+    total = evaluate(turns, cycle.world, cycle.goal, cycle.config).total
+    return float(np.min(np.where(np.isfinite(total), total, np.inf)))
 
 
 def profile(settings: CrowdNavSettings, episode: int, seed: int, times, variant="ds-mpepc"):
-    """``{"outcome", "time", "plans": [...]}``: the episode re-run with its plans kept, and
-    at each of ``times`` (s, rounded to the loop's 0.25 s cycles) the plan made then."""
-    log, _ = simulate_episode(settings, variant, episode, seed, record_trajectories=True)
-    dt = planner_config(settings, variant).horizon.dt
-    plans = []
-    for t in times:
-        k = int(round(float(t) / TIME_STEP))
-        if not (0 <= k < log.n_cycles and log.active[0, k]):
-            plans.append({"time": float(t), "planned": False})
-            continue
-        poses = log.plan_poses[0, k]
-        speed = np.hypot(*np.diff(poses[:, :2], axis=0).T) / dt
-        plans.append({
-            "time": float(log.times[k]), "planned": True,
-            "state": [round(float(s), 3) for s in log.states[0, k]],
-            "z": [round(float(v), 3) for v in log.z[0, k]],
-            "status": log.statuses[int(log.status[0, k])],
-            "cost": float(log.cost_total[0, k]),
-            "speed": [round(float(v), 3) for v in speed[::max(1, round(EVERY / dt))]],
-            "survivability_end": round(float(log.survivability[0, k]), 3),
-            "next_speed": (round(float(log.states[0, k + 1, 3]), 3)
-                           if k + 1 < len(log.times) else None)})
-    return {"outcome": log.outcomes[0], "time": float(log.outcome_times[0]), "plans": plans}
+    """``{"outcome", "time", "replayed", "plans": [...]}``: the episode, and at each of
+    ``times`` (s, rounded to the loop's cycles) the plan made then (the module docstring)."""
+    log, _ = simulate_episode(settings, variant, episode, seed, record_trajectories=False)
+    config = log.config()
+    planner = Planner(config, named_solver(settings.solver, settings.n_samples))
+    tolerance = float(log.meta["goal_tolerances"][0])
+    wanted = {int(round(float(t) / log.dt)): float(t) for t in times}
+    dt, found, replayed = config.horizon.dt, {}, True
+    for k, (state, world, goal) in zip(np.flatnonzero(log.active[0]), log.planning_inputs()):
+        plan = planner.plan(state, world, goal, goal_tolerance=tolerance)
+        replayed &= bool(np.allclose(plan.x, log.z[0, k], atol=1e-9))
+        if k in wanted:
+            found[k] = {
+                "time": float(log.times[k]), "planned": True,
+                "state": [round(float(s), 3) for s in log.states[0, k]],
+                "z": [round(float(v), 3) for v in plan.x], "status": plan.status,
+                "cost": float(plan.fun), "stall_level": int(plan.stall_level),
+                "speed": _rounded(plan.trajectory.v, round(EVERY / dt)),
+                "survivability": _rounded(plan.cost.survivability, round(SURVIVAL_EVERY / dt)),
+                "survivability_end": round(float(plan.cost.survivability[-1]), 3),
+                "turn_cost": turn_cost(plan, state, goal, planner.last_evaluator.cycle),
+                "next_speed": round(float(log.states[0, k + 1, 3]), 3)}
+    plans = [found.get(k, {"time": t, "planned": False}) for k, t in wanted.items()]
+    return {"outcome": log.outcomes[0], "time": float(log.outcome_times[0]),
+            "replayed": replayed, "plans": plans}
 
 
 def main(argv=None) -> int:
