@@ -227,11 +227,13 @@ def test_the_episode_keeps_the_planners_configuration_and_the_loops_step():
     """The loop steps 0.25 s, the planner plans in 0.2 s steps: the episode's ``dt`` is the
     loop's and its configuration the planner's, so a speed change per step within
     ``accel_limit * config.horizon.dt`` (what the escape search allows) is what the robot did:
-    from standing, its first step is at that limit."""
-    settings = cn.CrowdNavSettings(n_samples=64, duration=1.0, solver="sampling")
+    from standing, its first step is at that limit (the robot's own, here set lower)."""
+    settings = cn.CrowdNavSettings(n_samples=64, duration=1.0, solver="sampling",
+                                   overrides=(("robot.accel_limit", 1.0),))
     log, _ = cn.simulate_episode(settings, "ds-mpepc", 0, 0, record_trajectories=False)
     config = log.config()
     assert log.dt == cn.TIME_STEP and config.horizon.dt == 0.2
+    assert config.robot.accel_limit == 1.0
     step = config.robot.accel_limit * config.horizon.dt
     change = np.abs(np.diff(log.states[0, :-1, 3]))       # the last state is the outcome's stop
     assert change[0] == pytest.approx(step) and np.all(change <= step + 1e-12)

@@ -351,11 +351,11 @@ def simulate_episode(settings: CrowdNavSettings, variant: str, episode: int, see
         config, horizon=dataclasses.replace(config.horizon, dt=TIME_STEP))
     log = simulate(scenario, loop_config, solver, np.random.default_rng([seed, episode]),
                    planner_factory=factory, outcomes=OutcomeConfig(deadlock=False), **kwargs)
-    # The episode's configuration is the one its planner planned with (0.2 s steps); the
-    # loop's 0.25 s is the episode's ``dt``. What re-costs a logged cycle and the escape
-    # search's acceleration per step (accel_limit * plan step) read the planner's.
-    planned = config_to_dict(dataclasses.replace(loop_config, horizon=config.horizon))
-    log = dataclasses.replace(log, meta={**log.meta, "config": planned})
+    # The episode's configuration is the one its planner planned with: the method's 0.2 s
+    # steps (the loop's 0.25 s is the episode's ``dt``) and the robot that drove. What re-costs
+    # a logged cycle and the escape search (accel_limit * plan step a step) read it.
+    planned = dataclasses.replace(config, robot=scenario.agents[0].robot)
+    log = dataclasses.replace(log, meta={**log.meta, "config": config_to_dict(planned)})
     return with_swept_contact(log), crowd
 
 
