@@ -1,6 +1,6 @@
-"""People who start to walk (solve/tracking.py, ``PredictionConfig.speeding_up``): a walker whose
-speed rose since last plan is predicted at the speed a few plans on, capped; everyone else, and
-every world at the paper's settings, is planned in as seen."""
+"""People who start to walk (solve/tracking.py, ``PredictionConfig.speeding_up``): a person who
+stood at last plan and walks now is predicted at the speed a few plans on, capped; everyone
+else, and every world at the paper's settings, is planned in as seen."""
 
 import dataclasses
 

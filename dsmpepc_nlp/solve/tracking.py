@@ -2,9 +2,9 @@
 (``PredictionConfig.speeding_up``, docs/method.md section 3.1).
 
 A world shows each person's position and velocity now, with no name: :class:`SpeedingUp`
-matches each pedestrian to last plan's nearest prediction and predicts one whose speed rose as
-they will walk a few plans later. Robots (several circles) and worlds without people pass
-unchanged, so a planner with no people in view plans exactly as without it.
+matches each pedestrian to last plan's nearest prediction and predicts one who stood then and
+walks now as they will walk a few plans later. Robots (several circles), everyone else and
+worlds without people pass unchanged; with the option off the world is passed on untouched.
 """
 
 from __future__ import annotations
@@ -40,8 +40,8 @@ class SpeedingUp:
         self.last = None
 
     def update(self, world: World) -> World:
-        """``world`` with each speeding-up walker's velocity raised (the class docstring); the
-        people seen now are kept for the next plan."""
+        """``world`` with the velocity of each person who set off since last plan raised
+        (:meth:`faster`); the people seen now are kept for the next plan."""
         if self.prediction.speeding_up <= 0.0:
             return world
         index = _pedestrians(world)
@@ -55,13 +55,13 @@ class SpeedingUp:
         if last is None:
             return world
         faster = self.faster(position, velocity, *last)
-        if not np.any(faster != velocity):
+        changed = np.flatnonzero(np.any(faster != velocity, axis=1))
+        if not len(changed):
             return world
         obstacles = list(world.obstacles)
-        for k, i in enumerate(index):
-            if np.any(faster[k] != velocity[k]):
-                person = world.obstacles[i]
-                obstacles[i] = DynamicObstacle(person.centers, person.radii, faster[k])
+        for k in changed:
+            person = people[k]
+            obstacles[index[k]] = DynamicObstacle(person.centers, person.radii, faster[k])
         return world.with_obstacles(obstacles)
 
     def faster(self, position, velocity, last_position, last_velocity) -> np.ndarray:
