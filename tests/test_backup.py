@@ -324,3 +324,101 @@ def test_the_turns_law_rollouts_in_one_batch_are_each_the_law_from_where_its_tur
         np.testing.assert_array_equal(batch.target[i], alone.target)
         if aim is None:
             np.testing.assert_array_equal(batch.z[i], docking.docking_z(pose, goal, config))
+
+
+def judged_case(level=1, beyond=2.5, heading=math.pi, speed=0.05):
+    """Goal behind (``heading``: pi), a person standing beside the way round (the turn test's
+    case, with ``stall.judge_beyond``): the planner's plan, the state, the cycle at ``level``."""
+    state, goal = RobotState(0.0, 0.0, heading, speed, 0.0), (3.0, 0.5)
+    world = World(obstacles=[DynamicObstacle.pedestrian((1.2, -0.9), (0.0, 0.0), 0.3)])
+    config = dataclasses.replace(PlannerConfig(), stall=dataclasses.replace(
+        PlannerConfig().stall, judge_beyond=beyond))
+    solver = SolverConfig.sampling(n_samples=256)
+    config = Planner(config, solver).stall.config_for(level)
+    plan = Planner(config, solver).plan(state, world, goal, dock=False)
+    return plan, state, Cycle.prepare(state, world, goal, config)
+
+
+def test_past_the_horizon_every_trajectory_docks_from_where_it_ends():
+    """``docked_beyond`` keeps each trajectory over the horizon and carries it on by the
+    docking trajectory to the goal, within the robot's limits from its last command: given
+    long enough, each ends nearer the goal, and at it when it faced it."""
+    plan, state, cycle = judged_case()
+    config = cycle.config
+    assert backup.lengthened(config, 2.5).horizon.n_steps == config.horizon.n_steps + 13
+    assert backup.lengthened(config, 2.4).horizon.n_steps == config.horizon.n_steps + 12
+    turns = backup.turn_trajectories(plan, state, cycle.goal, config)
+    longer = backup.lengthened(config, 10.0)
+    carried = backup.docked_beyond(turns, cycle.goal, config, longer)
+    n, robot, dt = config.horizon.n_steps, config.robot, config.horizon.dt
+    assert carried.poses.shape == (len(turns.z), longer.horizon.n_steps + 1, 3)
+    np.testing.assert_array_equal(carried.poses[:, :n + 1], turns.poses)
+    np.testing.assert_array_equal(carried.v[:, :n], turns.v)
+    assert np.max(np.abs(np.diff(carried.v, axis=1))) <= robot.accel_limit * dt + 1e-9
+    assert np.max(np.abs(np.diff(carried.omega, axis=1))) <= robot.alpha_limit * dt + 1e-9
+    assert np.max(carried.v) <= robot.v_limit + 1e-12
+    goal = np.asarray(cycle.goal)
+    before = np.hypot(*(turns.poses[:, n, :2] - goal).T)
+    after = np.hypot(*(carried.poses[:, -1, :2] - goal).T)
+    assert np.all(after < before)
+    # Facing the goal within the box's bearing (theta_max), docking takes it there.
+    facing = np.abs(docking.off_the_line(turns.poses[:, n].T, goal)) <= config.bounds.theta_max
+    assert facing.sum() >= 8 and np.max(after[facing]) < 0.1
+
+
+@pytest.mark.parametrize("beyond, heading, speed, turned", [(1.0, math.pi, 0.05, True),
+                                                           (2.5, math.pi, 0.05, True),
+                                                           (5.0, math.pi, 0.05, True),
+                                                           (2.5, 0.17, 0.5, False)])
+def test_a_turn_judged_further_is_taken_only_when_cheaper_over_the_longer_horizon(
+        beyond, heading, speed, turned):
+    """The turn that comes back is the cheapest of the turns over the longer horizon, cheaper
+    there than the plan, each carried on past the horizon by docking; it comes back as
+    planned over the horizon and costed over it. None comes back exactly when no turn is
+    cheaper over the longer horizon: driving at the goal (``heading`` 0.17, 0.5 m/s), the
+    plan goes straight on and no turn is taken."""
+    plan, state, cycle = judged_case(beyond=beyond, heading=heading, speed=speed)
+    longer = backup.lengthened(cycle.config, beyond)
+    turns = backup.turn_trajectories(plan, state, cycle.goal, cycle.config)
+    costs = evaluate(backup.docked_beyond(turns, cycle.goal, cycle.config, longer), cycle.world,
+                     cycle.goal, longer).total
+    carried = backup.docked_beyond(plan.trajectory[None], cycle.goal, cycle.config, longer)
+    own = evaluate(carried, cycle.world, cycle.goal, longer).total[0]
+    judged = backup.judge_turns(plan, state, cycle)
+    n = cycle.config.horizon.n_steps
+    assert (judged is not None) == turned
+    if judged is None:
+        assert not np.nanmin(costs) < own
+        return
+    best = int(np.nanargmin(costs))
+    assert judged.status == "turning" and f"judged over {longer.horizon.duration:g} s" \
+        in judged.message
+    assert np.nanmin(costs) < own
+    np.testing.assert_array_equal(judged.trajectory.poses, turns.poses[best])
+    assert judged.trajectory.v.shape == (n,)
+    assert judged.fun == pytest.approx(float(evaluate(judged.trajectory, cycle.world,
+                                                      cycle.goal, cycle.config).total))
+    assert judged.control == (float(turns.v[best, 0]), float(turns.omega[best, 0]))
+
+
+def test_with_the_turns_judged_further_consider_never_judges_them_over_the_horizon():
+    """With ``judge_beyond`` on, a stalled plan of the law meets the turns only over the
+    longer horizon: what ``consider`` returns is ``judge_turns``'s turn or no turn at all;
+    below the turn level nothing changes."""
+    for beyond in (0.2, 2.5):
+        plan, state, cycle = judged_case(beyond=beyond)
+        judged = backup.judge_turns(plan, state, cycle)
+        chosen = backup.consider(plan, state, cycle, level=1)
+        if judged is None:
+            assert chosen is None or chosen.status != "turning"
+        else:
+            assert chosen.message == judged.message and chosen.fun == judged.fun
+    plan, state, cycle = judged_case(level=0)
+    assert backup.consider(plan, state, cycle, level=0) is None
+
+
+def test_judging_further_is_off_by_default_and_in_the_paper_preset():
+    assert PlannerConfig().stall.judge_beyond == 0.0
+    assert PlannerConfig.paper().stall.judge_beyond == 0.0
+    with pytest.raises(InputError, match="judge_beyond"):
+        StallConfig(judge_beyond=-1.0)

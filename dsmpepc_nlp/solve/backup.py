@@ -23,7 +23,7 @@ import math
 import numpy as np
 
 from ..core.config import PlannerConfig
-from ..core.control_law import Trajectory, commanded
+from ..core.control_law import Trajectory, commanded, rollout_from
 from ..core.exact_cost import evaluate
 from . import docking
 from .records import Plan
@@ -104,6 +104,67 @@ def turn_trajectories(plan: Plan, state, goal, config: PlannerConfig) -> Traject
     return docking.turns_then_law(config, cuts, goal)
 
 
+LAW_STATUSES = ("nlp", "sampling", "sampling-fallback")
+"""The statuses of a plan of the law (the NLP's or the sampler's), which :func:`judge_turns`
+judges."""
+
+
+def lengthened(config: PlannerConfig, beyond: float) -> PlannerConfig:
+    """``config`` with its horizon at least ``beyond`` seconds longer (whole plan periods)."""
+    horizon = config.horizon
+    extra = math.ceil(beyond / horizon.dt - 1e-9)
+    return dataclasses.replace(config, horizon=dataclasses.replace(
+        horizon, n_steps=horizon.n_steps + extra))
+
+
+def docked_beyond(trajectories: Trajectory, goal, config: PlannerConfig,
+                  longer: PlannerConfig) -> Trajectory:
+    """``trajectories`` (a batch over ``config``'s horizon), each carried on to ``longer``'s
+    horizon by the docking trajectory to ``goal`` from where it ends (the law from its last
+    pose and command, :func:`.docking.docking_z`): the same way after the horizon for every
+    one, so that what the longer horizon adds is only what each leaves there."""
+    n, extra = config.horizon.n_steps, longer.horizon.n_steps - config.horizon.n_steps
+    ends = trajectories.poses[:, n]
+    zs = np.array([docking.docking_z(pose, goal, config) for pose in ends])
+    carry = (*ends.T, trajectories.v[:, n - 1], trajectories.omega[:, n - 1])
+    after = rollout_from(zs, carry, config, n_steps=extra)
+    return Trajectory(trajectories.z, np.concatenate([trajectories.poses, after.poses[:, 1:]], 1),
+                      np.concatenate([trajectories.v, after.v], 1),
+                      np.concatenate([trajectories.omega, after.omega], 1), trajectories.target)
+
+
+def judge_turns(plan: Plan, state, cycle) -> Plan | None:
+    """The cheapest of :func:`turn_trajectories` when, over the horizon lengthened by
+    ``stall.judge_beyond``, it costs less than ``plan`` (the exact cost over the longer
+    horizon, every one carried on past the horizon by :func:`docked_beyond`); None otherwise.
+    The turn comes back as planned over the horizon and costed over it, as every plan is."""
+    config = cycle.config
+    longer = lengthened(config, config.stall.judge_beyond)
+    turns = turn_trajectories(plan, state, cycle.goal, config)
+    batch = Trajectory(*(np.concatenate([getattr(plan.trajectory, f.name)[None],
+                                         getattr(turns, f.name)])
+                         for f in dataclasses.fields(Trajectory)))
+    total = evaluate(docked_beyond(batch, cycle.goal, config, longer), cycle.world, cycle.goal,
+                     longer).total
+    total = np.where(np.isfinite(total), total, np.inf)
+    best = 1 + int(np.argmin(total[1:]))
+    if not total[best] < total[0]:
+        return None
+    chosen = batch[best]
+    cost = evaluate(chosen, cycle.world, cycle.goal, config)
+    aimed = 2 if np.all(np.isfinite(plan.trajectory.target)) else 1     # the plan's target
+    what = ("toward the goal" if best == 1 else "toward the plan's target" if best == aimed
+            else f"{'left' if chosen.omega[0] > 0 else 'right'}")
+    message = (f"stalled; judged over {longer.horizon.duration:g} s, turning in place {what}, "
+               f"then heading on (exact cost {total[best]:.3f}) is cheaper than the plan "
+               f"({total[0]:.3f}); it replaced: {plan.message}")
+    v0, omega0 = float(chosen.v[0]), float(chosen.omega[0])
+    control = (v0, omega0) if math.isfinite(v0) and math.isfinite(omega0) else (0.0, 0.0)
+    return dataclasses.replace(plan, x=chosen.z, fun=float(cost.total), success=True,
+                               message=message, trajectory=chosen, control=control, cost=cost,
+                               status="turning")
+
+
 def stands(plan: Plan, config: PlannerConfig) -> bool:
     """Whether ``plan`` gets less far than the stall window's least displacement over its
     whole horizon (it would stand, or all but)."""
@@ -157,6 +218,11 @@ def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) 
     # A docked plan already heads for the goal, turning in place first where it must.
     turn = (level >= stall.turn_level and stall.turn_to_goal > 0.0
             and plan.status != "docked")
+    if turn and stall.judge_beyond > 0.0 and plan.status in LAW_STATUSES:
+        judged = judge_turns(plan, state, cycle)
+        if judged is not None:
+            return judged
+        turn = False                    # the turns were judged, over the longer horizon
     sets = ([("reverse", back_up_trajectories(state, config))] if reverse else []) + (
         [("dodge", dodge_trajectories(state, config))] if dodge else []) + (
         [("turn", turn_trajectories(plan, state, cycle.goal, config))] if turn else [])
