@@ -402,17 +402,25 @@ def test_a_turn_judged_further_is_taken_only_when_cheaper_over_the_longer_horizo
 
 
 def test_with_the_turns_judged_further_consider_never_judges_them_over_the_horizon():
-    """With ``judge_beyond`` on, a stalled plan of the law meets the turns only over the
-    longer horizon: what ``consider`` returns is ``judge_turns``'s turn or no turn at all;
-    below the turn level nothing changes."""
+    """With ``judge_beyond`` on, a plan of the law stalled at ``judge_level`` or above meets
+    the turns only over the longer horizon: what ``consider`` returns is ``judge_turns``'s
+    turn or no turn at all. Below that level the rung is as with it off."""
+    top = StallConfig().judge_level
     for beyond in (0.2, 2.5):
-        plan, state, cycle = judged_case(beyond=beyond)
+        plan, state, cycle = judged_case(level=top, beyond=beyond)
         judged = backup.judge_turns(plan, state, cycle)
-        chosen = backup.consider(plan, state, cycle, level=1)
+        chosen = backup.consider(plan, state, cycle, level=top)
         if judged is None:
             assert chosen is None or chosen.status != "turning"
         else:
             assert chosen.message == judged.message and chosen.fun == judged.fun
+    plan, state, cycle = judged_case(level=1)
+    below = backup.consider(plan, state, cycle, level=1)
+    off = dataclasses.replace(cycle.config, stall=dataclasses.replace(cycle.config.stall,
+                                                                      judge_beyond=0.0))
+    as_off = backup.consider(plan, state, Cycle.prepare(state, cycle.world, cycle.goal, off), 1)
+    assert below.status == "turning" and "judged over" not in below.message
+    assert below.message == as_off.message and below.fun == as_off.fun
     plan, state, cycle = judged_case(level=0)
     assert backup.consider(plan, state, cycle, level=0) is None
 
@@ -420,5 +428,8 @@ def test_with_the_turns_judged_further_consider_never_judges_them_over_the_horiz
 def test_judging_further_is_off_by_default_and_in_the_paper_preset():
     assert PlannerConfig().stall.judge_beyond == 0.0
     assert PlannerConfig.paper().stall.judge_beyond == 0.0
+    assert StallConfig().judge_level == StallConfig().levels
     with pytest.raises(InputError, match="judge_beyond"):
         StallConfig(judge_beyond=-1.0)
+    with pytest.raises(InputError, match="judge_level"):
+        StallConfig(judge_level=-1)

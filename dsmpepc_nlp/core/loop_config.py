@@ -213,6 +213,10 @@ class StallConfig:
     that goes through at once, and each next plan puts the passage off again (CrowdNav square
     invisible's stalls, docs/results.md). Judged further, both carry the passage. Ours; half
     the horizon, 2.5 s."""
+    judge_level: int = 3
+    """The ladder's level from which ``judge_beyond`` acts (and not below ``turn_level``):
+    3, the ladder's top by default, where the progress weight can rise no more; 1, once
+    stalled, freed as many of CrowdNav's tuning stalls as it made (docs/results.md)."""
 
     def __post_init__(self):
         check_booleans(self, ("dodge", "threat_until_arrival"))
@@ -224,7 +228,8 @@ class StallConfig:
                                 "dodge_within": dict(low=0.0, low_open=True),
                                 "turn_to_goal": dict(low=0.0, high=math.pi),
                                 "judge_beyond": dict(low=0.0, high=60.0)})
-        check_integers(self, {"levels": 0, "back_up_level": 0, "turn_level": 0})
+        check_integers(self, {"levels": 0, "back_up_level": 0, "turn_level": 0,
+                              "judge_level": 0})
 
     def progress_gain(self, level: int) -> float:
         """The progress weight's factor at ``level`` (1 at level 0)."""

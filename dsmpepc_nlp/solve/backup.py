@@ -218,7 +218,8 @@ def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) 
     # A docked plan already heads for the goal, turning in place first where it must.
     turn = (level >= stall.turn_level and stall.turn_to_goal > 0.0
             and plan.status != "docked")
-    if turn and stall.judge_beyond > 0.0 and plan.status in LAW_STATUSES:
+    if turn and stall.judge_beyond > 0.0 and plan.status in LAW_STATUSES \
+            and level >= stall.judge_level:
         judged = judge_turns(plan, state, cycle)
         if judged is not None:
             return judged
