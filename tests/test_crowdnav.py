@@ -246,8 +246,8 @@ def test_a_stalled_robot_judged_beyond_the_horizon_gets_through(beyond, outcome)
     """Square invisible, test case 210 (docs/results.md, "Judging a stalled robot's turns
     beyond the horizon"): with the turns judged over the horizon only, every plan creeps and
     puts its passage between two standing people off until the time runs out; judged 2.5 s
-    further once stalled (``judge_level`` 1), a turn in place wins and the robot arrives. Either solver (``fast`` as CI's slow
-    run, or IPOPT)."""
+    further once stalled (``judge_level`` 1), a turn in place wins and the robot arrives.
+    Either solver (``fast`` as CI's slow run, or IPOPT)."""
     solver = os.environ.get("DSMPEPC_CLAIMS_SOLVER", "nlp")
     settings = cn.CrowdNavSettings(scene="square", setting="invisible", solver=solver,
                                    overrides=(("stall.judge_beyond", beyond),
