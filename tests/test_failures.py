@@ -9,14 +9,17 @@ import pytest
 
 from dsmpepc_nlp.bench import failures
 from dsmpepc_nlp.bench.crowd_rows import APPEARED, OFFSTAGE
-from dsmpepc_nlp.bench.failure_report import classify_folder, unsuccessful
+from dsmpepc_nlp.bench.failure_report import classify_folder, stuck_config, unsuccessful
 from dsmpepc_nlp.bench.failures import classify
 from dsmpepc_nlp.bench.results import ResultTable, keep_failure
 from dsmpepc_nlp.cli import main
 from dsmpepc_nlp.core.config import PlannerConfig
 from dsmpepc_nlp.core.errors import InputError
+from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import OccupancyGrid
 from dsmpepc_nlp.sim.episode import Episode, config_to_dict
+from dsmpepc_nlp.solve.planner import Planner
+from dsmpepc_nlp.viz.failures import _text
 
 DT = 0.2
 RADIUS = 0.3
@@ -383,3 +386,27 @@ def test_the_command_refuses_a_folder_without_a_table(tmp_path, capsys):
     assert "no benchmark table" in capsys.readouterr().err
     assert main(["failures", str(tmp_path / "missing")]) == 2
     assert "not a folder" in capsys.readouterr().err
+
+
+def test_the_stuck_cycle_is_costed_at_the_ladder_level_the_robot_planned_it_at():
+    """The stall monitor reads only the robot's positions and goal, so replaying it over a
+    logged episode gives each cycle's ladder level: the level a planner fed the same cycles
+    had (one every 2 s standing, up to 3), and the stuck cycle's panels are costed with the
+    progress weight it planned with. The report carries the level in the evidence."""
+    ped = np.tile([[[0.0, 1.0]]], (STALL, 1, 1))
+    episode = make_episode(standing(STALL), "deadlock", peds=ped, goal=(5.0, 0.0))
+    planner = Planner(episode.config(), SolverConfig.sampling(n_samples=16))
+    for k, (state, world, goal) in enumerate(episode.planning_inputs()):
+        config, level = stuck_config(episode, 0, k)
+        assert level == planner.plan(state, world, goal).stall_level == min(k // 10, 3)
+        gain = config.stall.gain ** level
+        assert config.cost.w_progress == pytest.approx(PlannerConfig().cost.w_progress * gain)
+
+
+def test_the_report_gives_each_failures_ladder_level(tmp_path):
+    """12 s standing in a gap: the ladder's top (3) at the stuck cycle; struck after 1.4 s
+    standing: level 0. The figure's evidence box prints it."""
+    report = classify_folder(_folder(tmp_path))
+    levels = {f["class"]: f["evidence"]["stall_level"] for f in report["failures"]}
+    assert levels == {"stalled-in-gap": 3, "struck-stopped": 0}
+    assert "stall_level: 3" in _text({"stall_level": 3})

@@ -16,6 +16,8 @@ import json
 from collections import Counter
 from pathlib import Path
 
+import numpy as np
+
 from ..core import options
 from ..core.config import RobotState
 from ..core.errors import InputError
@@ -23,6 +25,7 @@ from ..core.files import atomic_write_text
 from ..core.jsonio import dumps, json_clean
 from ..sim.episode import Episode
 from ..sim.panels import cost_panels
+from ..solve.stall import StallMonitor, replayed_level
 from ..viz import figures
 from .escape import escapes
 from .failures import CLASSES, classify
@@ -96,6 +99,8 @@ def classify_folder(out_dir, escape: bool = False) -> dict:
             for robot, outcome in enumerate(episode.outcomes):
                 if outcome != "success":
                     failure = classify(episode, robot).to_dict()
+                    failure["evidence"]["stall_level"] = stuck_config(
+                        episode, robot, failure["cycle"])[1]
                     if escape and outcome == "collision":
                         failure["evidence"].update(escapes(episode, robot))
                     if "goal_free_at" in row:  # a replay's draw: when the goal first freed
@@ -134,11 +139,25 @@ def _bound_given_path(failures, never: int, runs: int) -> dict:
 
 
 def stuck_panels(episode, failure: dict, n_samples: int = PANEL_SAMPLES):
-    """The cost panels (:func:`~dsmpepc_nlp.sim.panels.cost_panels`) of the stuck cycle."""
+    """The cost panels (:func:`~dsmpepc_nlp.sim.panels.cost_panels`) of the stuck cycle,
+    costed at the stall ladder's level the robot planned it at (:func:`stuck_config`)."""
     robot, k = failure["robot"], failure["cycle"]
     x, y, phi, v, omega = (float(s) for s in episode.states[robot, k])
     return cost_panels(RobotState(x, y, phi, v, omega), episode.world_at(k, robot),
-                       episode.goals[robot, k], episode.config(), n_samples=n_samples)
+                       episode.goals[robot, k], stuck_config(episode, robot, k)[0],
+                       n_samples=n_samples)
+
+
+def stuck_config(episode, robot: int, cycle: int) -> tuple:
+    """``(config, level)``: the configuration ``robot`` planned ``cycle`` with, the episode's
+    at the stall ladder's level then (the progress weight times ``stall.gain ** level``),
+    found by replaying the stall monitor over the robot's logged plans up to that cycle
+    (:func:`~dsmpepc_nlp.solve.stall.replayed_level`)."""
+    config = episode.config()
+    planned = [j for j in np.flatnonzero(episode.active[robot]) if j <= cycle]
+    states = [RobotState(*(float(s) for s in episode.states[robot, j])) for j in planned]
+    level = replayed_level(config, states, episode.goals[robot, planned])
+    return StallMonitor(config).config_for(level), level
 
 
 def draw_figures(report: dict, out_dir, n_examples: int, panels: bool = True) -> list:

@@ -79,3 +79,15 @@ class StallMonitor:
         gain = self.config.stall.progress_gain(level)
         return (f"stalled (moved < {self.config.stall.min_displacement:g} m in "
                 f"{self.config.stall.window:g} s): ladder level {level}, progress weight x{gain:g}")
+
+
+def replayed_level(config: PlannerConfig, states, goals) -> int:
+    """The ladder's level a planner of ``config`` plans the last of ``states`` at, having
+    planned each of them in turn toward the matching one of ``goals`` since its
+    :meth:`StallMonitor.reset`: the monitor reads only the positions and the goal, so a logged
+    episode's plans give it back (how the failure report's cost panels cost a stuck cycle at
+    the level the robot planned it at)."""
+    monitor, level = StallMonitor(config), 0
+    for state, goal in zip(states, goals):
+        level = monitor.update(state, goal)
+    return level
