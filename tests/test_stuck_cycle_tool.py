@@ -28,3 +28,21 @@ def test_the_law_cannot_back_away_from_a_person_just_ahead(tmp_path, tool):
     assert evaluation.z[stop, 3] == 0.0
     survival = evaluation.costs.survivability
     assert np.max(survival[:, -1]) <= survival[stop, -1] + 1e-12  # nothing outlives standing
+
+
+def test_the_cycle_is_costed_at_the_robots_ladder_level(tmp_path, capsys, tool):
+    """After 12 s standing the robot planned at the ladder's top (3): the tool says so and
+    costs the cycle with the progress weight it planned with, so the moving plan's lead over
+    standing is larger than at level 0 (``--level 0``, the weight unraised)."""
+    from test_failures import STALL
+    episode = make_episode(standing(STALL), "deadlock", goal=(5.0, 0.0))
+    path = episode.save(tmp_path / "stood.npz")
+    runs = {}
+    for extra in ([], ["--level", "0"]):
+        assert tool("stuck_cycle").main([str(path), "--cycle", "40", "--samples", "64",
+                                         *extra]) == 0
+        runs[tuple(extra)] = json.loads(capsys.readouterr().out)
+    at, zero = runs[()], runs[("--level", "0")]
+    assert at["stall_level"] == 3 and zero["stall_level"] == 0
+    lead = at["stop"]["total"] - at["lowest_cost"]["total"]
+    assert lead > zero["stop"]["total"] - zero["lowest_cost"]["total"] > 0.0

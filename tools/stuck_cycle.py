@@ -12,7 +12,10 @@ configuration (as the benchmarks' ``--set``), for example a wider box::
     python tools/stuck_cycle.py OUT/episodes/EPISODE.npz --cycle 94 --set bounds.delta_max=3.1
 
 ``--cycle`` defaults to the last cycle the robot planned in; ``dsmpepc failures`` names each
-failed run's stuck cycle (``cycle`` in its failures.json).
+failed run's stuck cycle (``cycle`` in its failures.json). The cycle is costed at the stall
+ladder's level the robot planned it at (replayed from the logged positions; ``stall_level`` in
+the output); ``--level K`` costs it at level K instead (0: the progress weight unraised, as
+this tool did before 2026-11-29).
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ import json
 
 import numpy as np
 
+from dsmpepc_nlp.bench.failure_report import stuck_config
 from dsmpepc_nlp.bench.params import overrides, replaced
 from dsmpepc_nlp.core.config import RobotState
 from dsmpepc_nlp.core.solver_config import SolverConfig
@@ -29,6 +33,7 @@ from dsmpepc_nlp.sim.episode import Episode
 from dsmpepc_nlp.solve.cycle import Cycle
 from dsmpepc_nlp.solve.evaluator import Evaluator
 from dsmpepc_nlp.solve.sampling import SamplingPlanner
+from dsmpepc_nlp.solve.stall import StallMonitor
 from dsmpepc_nlp.solve.starts import structured_starts
 
 
@@ -63,17 +68,24 @@ def main(argv=None) -> int:
     parser.add_argument("--cycle", type=int, default=None)
     parser.add_argument("--samples", type=int, default=4096)
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    parser.add_argument("--level", type=int, default=None,
+                        help="the stall ladder's level to cost at (default: the robot's then)")
     args = parser.parse_args(argv)
     episode = Episode.load(args.episode)
     cycle = args.cycle
     if cycle is None:
         cycle = int(np.flatnonzero(episode.active[0])[-1])
     config = replaced(episode.config(), dict(overrides(args.set)))
+    if args.level is None:
+        config, level = stuck_config(episode, 0, cycle, config)
+    else:
+        level = args.level
+        config = StallMonitor(config).config_for(level)
     evaluation, stop = costed(episode, cycle, config, args.samples)
     best = evaluation.best()
     survivor = int(np.argmax(evaluation.costs.survivability[:, -1]))
     dt = config.horizon.dt
-    report = {"cycle": cycle, "time": float(episode.times[cycle]),
+    report = {"cycle": cycle, "time": float(episode.times[cycle]), "stall_level": level,
               "lowest_cost": row(evaluation, best, dt), "highest_end_survivability":
               row(evaluation, survivor, dt), "stop": row(evaluation, stop, dt),
               "best_is_stop": bool(evaluation.costs.total[best] >= evaluation.costs.total[stop])}

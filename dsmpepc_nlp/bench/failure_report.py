@@ -148,12 +148,12 @@ def stuck_panels(episode, failure: dict, n_samples: int = PANEL_SAMPLES):
                        n_samples=n_samples)
 
 
-def stuck_config(episode, robot: int, cycle: int) -> tuple:
+def stuck_config(episode, robot: int, cycle: int, config=None) -> tuple:
     """``(config, level)``: the configuration ``robot`` planned ``cycle`` with, the episode's
-    at the stall ladder's level then (the progress weight times ``stall.gain ** level``),
-    found by replaying the stall monitor over the robot's logged plans up to that cycle
-    (:func:`~dsmpepc_nlp.solve.stall.replayed_level`)."""
-    config = episode.config()
+    (or ``config``) at the stall ladder's level then (the progress weight times
+    ``stall.gain ** level``), found by replaying the stall monitor over the robot's logged
+    plans up to that cycle (:func:`~dsmpepc_nlp.solve.stall.replayed_level`)."""
+    config = episode.config() if config is None else config
     planned = [j for j in np.flatnonzero(episode.active[robot]) if j <= cycle]
     states = [RobotState(*(float(s) for s in episode.states[robot, j])) for j in planned]
     level = replayed_level(config, states, episode.goals[robot, planned])
