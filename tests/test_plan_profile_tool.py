@@ -1,5 +1,6 @@
-"""tools/plan_profile.py: one CrowdNav episode run, then replayed plan by plan by a fresh
-planner (the same plans), each plan's speed over its horizon beside the speed the robot drove."""
+"""tools/plan_profile.py: one CrowdNav episode (or ETH/UCY replay) run, then replayed plan by
+plan by a fresh planner (the same plans), each plan's speed over its horizon beside the speed
+the robot drove."""
 
 import json
 import math
@@ -38,3 +39,32 @@ def test_a_planner_that_is_not_the_runs_is_caught(monkeypatch, capsys, tool):
     module.main(["--scene", "circle", "--seed", "0", "--episode", "0", "--at", "0",
                  "--solver", "sampling", "--samples", "64", "--duration", "1"])
     assert json.loads(capsys.readouterr().out)["replayed"] is False
+
+
+def test_an_ethucy_replay_is_profiled_as_its_benchmark_ran_it(tmp_path, capsys, tool):
+    """With ``--data`` the episode is ``dsmpepc benchmark crowd``'s crossing: the same outcome
+    and time as the benchmark's row, replayed plan by plan. A CrowdNav-less scene without
+    ``--data`` is refused by name."""
+    import pytest
+    from test_crowds import write_recording
+
+    from dsmpepc_nlp import cli
+    write_recording(tmp_path / "data" / "toy" / "test" / "toy.txt")
+    common = ["--solver", "sampling", "--samples", "32", "--duration", "8"]
+    assert cli.main(["benchmark", "crowd", "--data", str(tmp_path / "data"), "--scene", "toy",
+                     "--episodes", "2", "--variants", "ds-mpepc", "--workers", "1",
+                     "--out", str(tmp_path / "out"), "--json", *common]) == 0
+    capsys.readouterr()
+    rows = json.loads((tmp_path / "out" / "crowd.json").read_text())["rows"]
+    row = next(r for r in rows if r["episode"] == 1)
+    assert tool("plan_profile").main(["--data", str(tmp_path / "data"), "--scene", "toy",
+                                      "--seed", "0", "--episode", "1", "--at", "0", "1",
+                                      *common]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["replayed"] is True
+    assert (report["outcome"], report["time"]) == (row["outcome"], row["time"])
+    assert [p["time"] for p in report["plans"]] == [0.0, 1.0]
+    assert all(p["planned"] and len(p["z"]) == 4 for p in report["plans"])
+    with pytest.raises(SystemExit):
+        tool("plan_profile").main(["--scene", "toy", "--episode", "0", "--at", "0"])
+    assert "needs --data" in capsys.readouterr().err

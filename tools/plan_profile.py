@@ -1,6 +1,6 @@
-"""What the robot planned, cycle by cycle, in one CrowdNav episode: each plan's speed and
-survivability over its horizon, its stall level and the turn rung's best offer, beside what the
-robot then did.
+"""What the robot planned, cycle by cycle, in one CrowdNav episode or ETH/UCY replay: each plan's
+speed and survivability over its horizon, its stall level and the turn rung's best offer, beside
+what the robot then did.
 
 Benchmarks keep no plans, so this runs the episode (deterministic: the benchmark's outcome and
 time come back), then replays a fresh planner over the states and people it logged, cycle by
@@ -14,6 +14,11 @@ putting the burst off::
 
     python tools/plan_profile.py --scene square --seed 0 --episode 385 --at 20 20.5 21
     python tools/plan_profile.py --scene square --seed 0 --episode 385 --at 20 --set stall.levels=5
+
+With ``--data DIR`` the episode is a replay of ``dsmpepc benchmark crowd --data DIR`` instead
+(``--scene`` eth, hotel, zara1, zara2, univ, or a recording; ``--duration`` its window)::
+
+    python tools/plan_profile.py --data DATA/ethucy --scene univ --seed 0 --episode 22 --at 5 6
 """
 
 from __future__ import annotations
@@ -23,7 +28,9 @@ import json
 
 import numpy as np
 
-from dsmpepc_nlp.bench.crowdnav import SCENES, SETTINGS, CrowdNavSettings, simulate_episode
+from dsmpepc_nlp.bench import crowdnav, crowds
+from dsmpepc_nlp.bench.crowdnav import SETTINGS, CrowdNavSettings
+from dsmpepc_nlp.bench.crowds import CrowdSettings
 from dsmpepc_nlp.bench.params import named_solver, overrides
 from dsmpepc_nlp.core.exact_cost import evaluate
 from dsmpepc_nlp.solve import backup
@@ -46,10 +53,13 @@ def turn_cost(plan, state, goal, cycle) -> float:
     return float(np.min(np.where(np.isfinite(total), total, np.inf)))
 
 
-def profile(settings: CrowdNavSettings, episode: int, seed: int, times, variant="ds-mpepc"):
-    """``{"outcome", "time", "replayed", "plans": [...]}``: the episode, and at each of
+def profile(settings, episode: int, seed: int, times, variant="ds-mpepc"):
+    """``{"outcome", "time", "replayed", "plans": [...]}``: the episode (CrowdNav's with
+    :class:`CrowdNavSettings`, an ETH/UCY replay with :class:`CrowdSettings`), and at each of
     ``times`` (s, rounded to the loop's cycles) the plan made then (the module docstring)."""
-    log, _ = simulate_episode(settings, variant, episode, seed, record_trajectories=False)
+    family = crowds if isinstance(settings, CrowdSettings) else crowdnav
+    log, _ = family.simulate_episode(settings, variant, episode, seed,
+                                     record_trajectories=False)
     config = log.config()
     planner = Planner(config, named_solver(settings.solver, settings.n_samples))
     tolerance = float(log.meta["goal_tolerances"][0])
@@ -76,7 +86,10 @@ def profile(settings: CrowdNavSettings, episode: int, seed: int, times, variant=
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scene", choices=SCENES, default="circle")
+    parser.add_argument("--scene", default="circle",
+                        help=f"CrowdNav's {' or '.join(crowdnav.SCENES)}; with --data an "
+                             f"ETH/UCY scene ({', '.join(crowds.SCENES)}) or a recording")
+    parser.add_argument("--data", default=None, help="ETH/UCY data folder: replay a crossing")
     parser.add_argument("--robot", choices=SETTINGS, default="invisible")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--episode", type=int, required=True)
@@ -88,9 +101,15 @@ def main(argv=None) -> int:
     parser.add_argument("--duration", type=float, default=None)
     args = parser.parse_args(argv)
     extra = {} if args.duration is None else {"duration": args.duration}
-    settings = CrowdNavSettings(scene=args.scene, setting=args.robot, preset=args.preset,
-                                overrides=overrides(args.set), solver=args.solver,
-                                n_samples=args.samples, **extra)
+    common = dict(scene=args.scene, preset=args.preset, overrides=overrides(args.set),
+                  solver=args.solver, n_samples=args.samples, **extra)
+    if args.data is not None:
+        settings = CrowdSettings(data=args.data, **common)
+    elif args.scene in crowdnav.SCENES:
+        settings = CrowdNavSettings(setting=args.robot, **common)
+    else:
+        parser.error(f"--scene {args.scene!r}: CrowdNav's scenes are "
+                     f"{', '.join(crowdnav.SCENES)}; an ETH/UCY scene needs --data")
     print(json.dumps(profile(settings, args.episode, args.seed, args.at), indent=1))
     return 0
 

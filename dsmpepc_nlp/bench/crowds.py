@@ -326,23 +326,31 @@ def episode_scenario(settings: CrowdSettings, episode: int, seed: int):
                              goal_clear=settings.goal_clear)
 
 
+def simulate_episode(settings: CrowdSettings, variant: str, episode: int, seed: int,
+                     **kwargs) -> tuple:
+    """Run crossing ``episode`` with ``variant`` (``orca``, ``cv`` included): ``(Episode,
+    draw)``, the draw being what :func:`crossing_scenario` drew (start, goal, window).
+    ``kwargs`` go to the simulator."""
+    scenario, draw = episode_scenario(settings, episode, seed)
+    rng = np.random.default_rng([seed, episode])
+    if variant == "orca":
+        return simulate_orca(scenario, PlannerConfig(), rng, **kwargs), draw
+    if variant == "cv":
+        return simulate(scenario, PlannerConfig(), SolverConfig.sampling(n_samples=1), rng,
+                        planner_factory=ConstantVelocityPlanner, **kwargs), draw
+    return simulate(scenario, planner_config(settings, variant),
+                    named_solver(settings.solver, settings.n_samples), rng, **kwargs), draw
+
+
 def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int,
                 out_dir=None) -> dict:
     """One crossing with one planner variant (``orca``, ``cv`` included); the result row."""
     row = {"episode": int(episode), "seed": int(seed), "variant": variant}
 
     def run():
-        scenario, draw = episode_scenario(settings, episode, seed)
+        log, draw = simulate_episode(settings, variant, episode, seed, record_trajectories=False)
         row.update(draw)
-        rng = np.random.default_rng([seed, episode])
-        if variant == "orca":
-            return simulate_orca(scenario, PlannerConfig(), rng, record_trajectories=False)
-        if variant == "cv":
-            return simulate(scenario, PlannerConfig(), SolverConfig.sampling(n_samples=1), rng,
-                            planner_factory=ConstantVelocityPlanner, record_trajectories=False)
-        return simulate(scenario, planner_config(settings, variant),
-                        named_solver(settings.solver, settings.n_samples), rng,
-                        record_trajectories=False)
+        return log
 
     return measured_row(row, run, lambda episode: {"contact_age": contact_age(episode)},
                         keep=(out_dir, f"crowd-{settings.scene}-{variant}-{seed}-{episode}"))
