@@ -216,7 +216,7 @@ class StallConfig:
     judge_level: int = 3
     """The ladder's level from which ``judge_beyond`` acts (and not below ``turn_level``):
     3, the ladder's top by default, where the progress weight can rise no more; 1, once
-    stalled, freed as many of CrowdNav's tuning stalls as it made (docs/results.md)."""
+    stalled (both measured in docs/results.md)."""
 
     def __post_init__(self):
         check_booleans(self, ("dodge", "threat_until_arrival"))
@@ -256,8 +256,8 @@ class PredictionConfig:
 
     speeding_up: float = 0.0
     """Plans of look-ahead for a walker's speed as they set off; 0 turns it off. Off by
-    default: at 2 it lost on CrowdNav's square-invisible tuning episodes (3 won, 8 lost; the
-    robot braked for the quicker walker and was struck standing; docs/results.md)."""
+    default: at 2 it lost on CrowdNav's square-invisible tuning episodes (the robot braked for
+    the quicker walker and was struck standing; docs/results.md)."""
     walking_speed: float = 1.3
     """The most a speeding-up walker is predicted at, m/s: a brisk adult walk (the comfortable
     gait speed of adults is 1.3-1.5 m/s; ours, not the paper's)."""

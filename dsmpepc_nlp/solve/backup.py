@@ -152,17 +152,31 @@ def judge_turns(plan: Plan, state, cycle) -> Plan | None:
         return None
     chosen = batch[best]
     cost = evaluate(chosen, cycle.world, cycle.goal, config)
-    aimed = 2 if np.all(np.isfinite(plan.trajectory.target)) else 1     # the plan's target
-    what = ("toward the goal" if best == 1 else "toward the plan's target" if best == aimed
-            else f"{'left' if chosen.omega[0] > 0 else 'right'}")
-    message = (f"stalled; judged over {longer.horizon.duration:g} s, turning in place {what}, "
-               f"then heading on (exact cost {total[best]:.3f}) is cheaper than the plan "
-               f"({total[0]:.3f}); it replaced: {plan.message}")
+    message = (f"stalled; judged over {longer.horizon.duration:g} s, turning in place "
+               f"{_turn_named(best - 1, chosen, plan)}, then heading on (exact cost "
+               f"{total[best]:.3f}) is cheaper than the plan ({total[0]:.3f}); it replaced: "
+               f"{plan.message}")
+    return _replaced(plan, chosen, cost, message, "turning")
+
+
+def _turn_named(index: int, chosen: Trajectory, plan: Plan) -> str:
+    """Which of :func:`turn_trajectories` row ``index`` is, in words (the plan's target has
+    a row only when it is finite)."""
+    if index == 0:
+        return "toward the goal"
+    if index == 1 and np.all(np.isfinite(plan.trajectory.target)):
+        return "toward the plan's target"
+    return "left" if chosen.omega[0] > 0 else "right"
+
+
+def _replaced(plan: Plan, chosen: Trajectory, cost, message: str, status: str) -> Plan:
+    """``plan`` replaced by the rung's ``chosen`` trajectory (its exact ``cost``), its first
+    command the control (a stop where it is not finite)."""
     v0, omega0 = float(chosen.v[0]), float(chosen.omega[0])
     control = (v0, omega0) if math.isfinite(v0) and math.isfinite(omega0) else (0.0, 0.0)
     return dataclasses.replace(plan, x=chosen.z, fun=float(cost.total), success=True,
                                message=message, trajectory=chosen, control=control, cost=cost,
-                               status="turning")
+                               status=status)
 
 
 def stands(plan: Plan, config: PlannerConfig) -> bool:
@@ -243,10 +257,9 @@ def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) 
     if kind == "turn":
         off = abs(float(docking.off_the_line(state.pose, cycle.goal)))
         why = f"stalled, facing {off:.2f} rad away from the goal"
-        what = ("turning in place toward the goal, then heading to it" if first == 0 else
-                "turning in place toward the plan's target, then heading to it" if first == 1
-                else f"turning in place {'left' if chosen.omega[0] > 0 else 'right'}, then "
-                     "heading to the goal")
+        name = _turn_named(first, chosen, plan)
+        what = (f"turning in place {name}, then heading to "
+                f"{'it' if name.startswith('toward') else 'the goal'}")
     elif kind == "reverse" and stalled:
         why = "stalled and the plan stood"
     else:
@@ -263,9 +276,5 @@ def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) 
                 f"{abs(float(chosen.omega[0])):.2f} rad/s, then ahead")
     message = (f"{why} (exact cost {plan.fun:.3f}): {what} (exact cost {total[best]:.3f}); "
                f"it replaced: {plan.message}")
-    v0, omega0 = float(chosen.v[0]), float(chosen.omega[0])
-    control = (v0, omega0) if math.isfinite(v0) and math.isfinite(omega0) else (0.0, 0.0)
     status = {"reverse": "backing-up", "dodge": "dodging", "turn": "turning"}[kind]
-    return dataclasses.replace(plan, x=chosen.z, fun=float(total[best]), success=True,
-                               message=message, trajectory=chosen, control=control,
-                               cost=costs[best], status=status)
+    return _replaced(plan, chosen, costs[best], message, status)

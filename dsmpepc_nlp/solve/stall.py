@@ -62,6 +62,16 @@ class StallMonitor:
             self._positions.append((x1, y1))
         return self.level
 
+    def replay(self, states, goals) -> int:
+        """The level a planner plans the last of ``states`` at, having planned each of them in
+        turn toward the matching one of ``goals`` since :meth:`reset`: the monitor reads only
+        the positions and the goal, so a logged episode's plans give it back (how the failure
+        report costs a stuck cycle at the level the robot planned it at)."""
+        self.reset()
+        for state, goal in zip(states, goals):
+            self.update(state, goal)
+        return self.level
+
     def config_for(self, level: int) -> PlannerConfig:
         """The configuration to plan with at ``level`` (kept per level: the same object every
         cycle, so what is derived from it per instance is derived once)."""
@@ -80,14 +90,3 @@ class StallMonitor:
         return (f"stalled (moved < {self.config.stall.min_displacement:g} m in "
                 f"{self.config.stall.window:g} s): ladder level {level}, progress weight x{gain:g}")
 
-
-def replayed_level(config: PlannerConfig, states, goals) -> int:
-    """The ladder's level a planner of ``config`` plans the last of ``states`` at, having
-    planned each of them in turn toward the matching one of ``goals`` since its
-    :meth:`StallMonitor.reset`: the monitor reads only the positions and the goal, so a logged
-    episode's plans give it back (how the failure report's cost panels cost a stuck cycle at
-    the level the robot planned it at)."""
-    monitor, level = StallMonitor(config), 0
-    for state, goal in zip(states, goals):
-        level = monitor.update(state, goal)
-    return level
