@@ -433,3 +433,71 @@ def test_judging_further_is_off_by_default_and_in_the_paper_preset():
         StallConfig(judge_beyond=-1.0)
     with pytest.raises(InputError, match="judge_level"):
         StallConfig(judge_level=-1)
+
+
+def test_the_arrival_estimate_is_the_first_step_near_the_goal_else_a_straight_way_on():
+    """A straight run at 1 m/s: within 0.3 m of a goal 3 m ahead at its 14th step (2.8 s); a
+    goal 10 m ahead it does not reach in 5 s, so its end's time plus the 5 m left at the speed
+    limit (1 m/s), 10 s."""
+    config = PlannerConfig()
+    n, dt = config.horizon.n_steps, config.horizon.dt
+    t = np.arange(n + 1) * dt
+    run = backup.Trajectory(np.zeros((2, 4)), np.stack([np.stack([t, 0 * t, 0 * t], 1)] * 2),
+                            np.ones((2, n)), np.zeros((2, n)), np.zeros((2, 3)))
+    assert backup.arrival_estimate(run, (3.0, 0.0), 0.3, config) == pytest.approx([2.8, 2.8])
+    assert backup.arrival_estimate(run, (10.0, 0.0), 0.3, config) == pytest.approx([10.0, 10.0])
+    slow = dataclasses.replace(config, robot=dataclasses.replace(config.robot, v_limit=0.5))
+    assert backup.arrival_estimate(run, (10.0, 0.0), 0.3, slow)[0] == pytest.approx(15.0)
+
+
+@pytest.mark.parametrize("order", ["plan-first", "as-estimated", "one-turn-sooner"])
+def test_judged_sooner_a_turn_must_also_arrive_before_the_plan(monkeypatch, order):
+    """With ``stall.judge_sooner`` the turn taken is the cheapest over the longer horizon of
+    the turns whose arrival estimate is sooner than the plan's, when it is cheaper than the
+    plan; a turn that is cheaper but arrives no sooner is not taken. The estimates are set
+    here (the plan first; as computed; only the dearest turn sooner) to reach every branch."""
+    plan, state, cycle = judged_case(beyond=2.5, heading=-math.pi / 2)
+    config = dataclasses.replace(cycle.config, stall=dataclasses.replace(
+        cycle.config.stall, judge_sooner=True))
+    cycle = Cycle.prepare(state, cycle.world, cycle.goal, config)
+    longer = backup.lengthened(config, 2.5)
+    turns = backup.turn_trajectories(plan, state, cycle.goal, config)
+    costs = evaluate(backup.docked_beyond(turns, cycle.goal, config, longer), cycle.world,
+                     cycle.goal, longer).total
+    own = evaluate(backup.docked_beyond(plan.trajectory[None], cycle.goal, config, longer),
+                   cycle.world, cycle.goal, longer).total[0]
+    assert np.nanmin(costs) < own            # without the estimate, a turn would be taken
+    estimate = backup.arrival_estimate
+
+    def arrivals(carried, goal, radius, config):
+        found = estimate(carried, goal, radius, config)
+        if order == "plan-first":
+            return np.r_[0.0, found[1:] + 1.0]
+        if order == "one-turn-sooner":
+            return np.r_[1.0, np.where(np.arange(len(found) - 1) == np.nanargmax(costs),
+                                       0.0, 2.0)]
+        return found
+    monkeypatch.setattr(backup, "arrival_estimate", arrivals)
+    judged = backup.judge_turns(plan, state, cycle, goal_tolerance=0.3)
+    if order == "plan-first":
+        assert judged is None
+        return
+    carried = backup.docked_beyond(
+        backup.Trajectory(*(np.concatenate([getattr(plan.trajectory, f.name)[None],
+                                            getattr(turns, f.name)])
+                            for f in dataclasses.fields(backup.Trajectory))),
+        cycle.goal, config, longer)
+    sooner = arrivals(carried, cycle.goal, 0.3, config)
+    allowed = np.where(sooner[1:] < sooner[0], costs, np.inf)
+    if not np.min(allowed) < own:
+        assert judged is None and order == "one-turn-sooner"
+        return
+    best = int(np.argmin(allowed))
+    np.testing.assert_array_equal(judged.trajectory.poses, turns.poses[best])
+    assert "arriving by" in judged.message
+
+
+def test_judging_sooner_is_off_by_default_and_in_the_paper_preset_and_a_boolean():
+    assert PlannerConfig.paper().stall.judge_sooner is False
+    with pytest.raises(InputError, match="judge_sooner"):
+        StallConfig(judge_sooner=2.0)

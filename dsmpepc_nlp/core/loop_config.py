@@ -217,9 +217,15 @@ class StallConfig:
     """The ladder's level from which ``judge_beyond`` acts (and not below ``turn_level``):
     3, the ladder's top by default, where the progress weight can rise no more; 1, once
     stalled (both measured in docs/results.md)."""
+    judge_sooner: bool = False
+    """With ``judge_beyond``, a turn replaces the plan only when it is also expected to arrive
+    sooner (``backup.arrival_estimate``: where it first comes within the goal's tolerance over
+    the longer horizon, else the longer horizon's end plus the straight way left at the speed
+    limit), so a turn that is cheaper only by going the long way round a person is not taken.
+    Ours (docs/results.md)."""
 
     def __post_init__(self):
-        check_booleans(self, ("dodge", "threat_until_arrival"))
+        check_booleans(self, ("dodge", "threat_until_arrival", "judge_sooner"))
         validate_fields(self, {"window": dict(low=0.0, low_open=True),
                                 "min_displacement": dict(low=0.0, low_open=True),
                                 "gain": dict(low=1.0), "back_up": dict(low=0.0),

@@ -133,10 +133,24 @@ def docked_beyond(trajectories: Trajectory, goal, config: PlannerConfig,
                       np.concatenate([trajectories.omega, after.omega], 1), trajectories.target)
 
 
-def judge_turns(plan: Plan, state, cycle) -> Plan | None:
+def arrival_estimate(trajectories: Trajectory, goal, radius: float,
+                     config: PlannerConfig) -> np.ndarray:
+    """s, per trajectory of the batch: when it first comes within ``radius`` of ``goal``;
+    for one that does not, its end's time plus the straight way left to ``goal`` at the
+    speed limit (a lower bound on its arrival)."""
+    poses, dt = trajectories.poses, config.horizon.dt
+    left = np.hypot(poses[:, -1, 0] - goal[0], poses[:, -1, 1] - goal[1])
+    late = (poses.shape[1] - 1) * dt + left / config.robot.v_limit
+    steps = [docking.arrival_step(p, goal, radius) for p in poses]
+    return np.array([late[i] if step is None else step * dt for i, step in enumerate(steps)])
+
+
+def judge_turns(plan: Plan, state, cycle, goal_tolerance: float = 0.0) -> Plan | None:
     """The cheapest of :func:`turn_trajectories` when, over the horizon lengthened by
     ``stall.judge_beyond``, it costs less than ``plan`` (the exact cost over the longer
     horizon, every one carried on past the horizon by :func:`docked_beyond`); None otherwise.
+    With ``stall.judge_sooner`` only the turns whose :func:`arrival_estimate` (within
+    ``goal_tolerance``, else ``docking.arrival_radius``) is sooner than the plan's compete.
     The turn comes back as planned over the horizon and costed over it, as every plan is."""
     config = cycle.config
     longer = lengthened(config, config.stall.judge_beyond)
@@ -144,18 +158,25 @@ def judge_turns(plan: Plan, state, cycle) -> Plan | None:
     batch = Trajectory(*(np.concatenate([getattr(plan.trajectory, f.name)[None],
                                          getattr(turns, f.name)])
                          for f in dataclasses.fields(Trajectory)))
-    total = evaluate(docked_beyond(batch, cycle.goal, config, longer), cycle.world, cycle.goal,
-                     longer).total
+    carried = docked_beyond(batch, cycle.goal, config, longer)
+    total = evaluate(carried, cycle.world, cycle.goal, longer).total
     total = np.where(np.isfinite(total), total, np.inf)
+    sooner = ""
+    if config.stall.judge_sooner:
+        radius = goal_tolerance if goal_tolerance > 0.0 else config.docking.arrival_radius
+        arrival = arrival_estimate(carried, cycle.goal, radius, config)
+        total[1:] = np.where(arrival[1:] < arrival[0], total[1:], np.inf)
     best = 1 + int(np.argmin(total[1:]))
     if not total[best] < total[0]:
         return None
+    if config.stall.judge_sooner:
+        sooner = f", arriving by {arrival[best]:.2f} s against {arrival[0]:.2f} s"
     chosen = batch[best]
     cost = evaluate(chosen, cycle.world, cycle.goal, config)
     message = (f"stalled; judged over {longer.horizon.duration:g} s, turning in place "
                f"{_turn_named(best - 1, chosen, plan)}, then heading on (exact cost "
-               f"{total[best]:.3f}) is cheaper than the plan ({total[0]:.3f}); it replaced: "
-               f"{plan.message}")
+               f"{total[best]:.3f}{sooner}) is cheaper than the plan ({total[0]:.3f}); it "
+               f"replaced: {plan.message}")
     return _replaced(plan, chosen, cost, message, "turning")
 
 
@@ -234,7 +255,7 @@ def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) 
             and plan.status != "docked")
     if turn and stall.judge_beyond > 0.0 and plan.status in LAW_STATUSES \
             and level >= stall.judge_level:
-        judged = judge_turns(plan, state, cycle)
+        judged = judge_turns(plan, state, cycle, goal_tolerance)
         if judged is not None:
             return judged
         turn = False                    # the turns were judged, over the longer horizon
