@@ -111,6 +111,39 @@ def test_a_robot_hit_side_on_while_driving_is_struck_while_moving():
     assert abs(f.evidence["approach_speed"]) < 0.01
 
 
+def test_a_collision_says_when_it_came_and_how_far_the_person_stood_at_the_start():
+    """The walker of the struck-stopped case starts 2.0 m off (a gap of 1.4 m) and touches at
+    1.4 s; a replay's person parked off stage at the start has no ``start_gap``."""
+    ped = np.stack([2.0 - np.arange(8) * 0.2, np.zeros(8)], 1)[:, None, :]
+    f = classify(make_episode(standing(8), "collision", peds=ped))
+    assert f.evidence["contact_time"] == pytest.approx(1.4)
+    assert f.evidence["start_gap"] == pytest.approx(1.4)
+    parked = ped.copy()
+    parked[0] = OFFSTAGE
+    assert "start_gap" not in classify(make_episode(standing(8), "collision",
+                                                    peds=parked)).evidence
+
+
+def test_the_report_counts_the_contacts_of_the_first_second(tmp_path):
+    """Two collisions, at 0.6 s (a walker 1.2 m off at the start: a gap of 0.6 m) and at
+    1.4 s: one early contact, with that walker's start gap; none in a folder whose only
+    collision comes at 1.4 s."""
+    table = ResultTable(tmp_path, "barn", ("world",), {"benchmark": "barn"})
+    for world, start in ((0, 1.2), (1, 2.0)):
+        ped = np.stack([start - np.arange(8) * 0.2, np.zeros(8)], 1)[:, None, :]
+        n = int(round((start - 0.6) / 0.2)) + 1          # up to the contact state
+        episode = make_episode(standing(n), "collision", peds=ped[:n])
+        table.add({"world": world, "outcome": "collision",
+                   "episode_file": keep_failure(episode, tmp_path, f"w{world}")})
+    report = classify_folder(tmp_path)
+    assert report["early_contacts"] == {"within": 1.0, "collisions": 1,
+                                        "start_gap": [pytest.approx(0.6), pytest.approx(0.6)]}
+    assert main(["failures", str(tmp_path), "--figures", "0"]) == 0
+    assert "1 of the collisions came within 1 s of the start, the person touched standing " \
+        "0.60-0.60 m" in (tmp_path / "failures.md").read_text()
+    assert "early_contacts" not in classify_folder(_folder(tmp_path / "late"))
+
+
 def _appearing(n, on_stage_from):
     """A walker closing on a standing robot along +x at 1 m/s, parked at OFFSTAGE before
     state ``on_stage_from`` (as the ETH/UCY replay keeps a track that has not begun)."""

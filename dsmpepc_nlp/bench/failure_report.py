@@ -13,6 +13,7 @@ folder and one figure per class, ``failures-<class>.png``, with up to ``--figure
 from __future__ import annotations
 
 import json
+import math
 from collections import Counter
 from pathlib import Path
 
@@ -37,6 +38,9 @@ PANEL_SAMPLES = 1024
 """Samples per cost panel: a quarter of ``run --panels``'s, enough to see the cost's shape."""
 
 
+EARLY = 1.0
+"""s: in its first second a robot that starts at rest covers at most 0.75 m (1.5 m/s^2), so a
+contact by then came from where the person stood when the run began (``early_contacts``)."""
 ESCAPES = ("forward", "rung", "full", "none", "not searched")
 """The escape search's answers (:func:`.escape.escapes`), narrowest way out first."""
 
@@ -113,6 +117,7 @@ def classify_folder(out_dir, escape: bool = False) -> dict:
         found = Counter(str(f["evidence"]["escape"]).split(":")[0] for f in failures
                         if "escape" in f["evidence"])
         report["escapes"] = {name: found[name] for name in ESCAPES if found[name]}
+    report.update(_early_contacts(failures))
     never = sum("goal_free_at" in f["evidence"] and f["evidence"]["goal_free_at"] is None
                 for f in failures)
     if never:
@@ -125,6 +130,30 @@ def classify_folder(out_dir, escape: bool = False) -> dict:
             "counts": {name: counts[name] for name in CLASSES if counts[name]},
             "unclassified": len(unclassified), "failures": failures,
             "unclassified_runs": unclassified}
+
+
+def _early_contacts(failures) -> dict:
+    """``early_contacts``: the collisions within :data:`EARLY` of the start, with the range of
+    the touched people's gaps to the robot then (``start_gap``, m); {} without such a one."""
+    early = [f["evidence"] for f in failures if f["outcome"] == "collision"
+             and f["evidence"].get("contact_time", math.inf) <= EARLY + 1e-9]
+    if not early:
+        return {}
+    gaps = [e["start_gap"] for e in early if "start_gap" in e]
+    return {"early_contacts": {"within": EARLY, "collisions": len(early),
+                               "start_gap": [min(gaps), max(gaps)] if gaps else None}}
+
+
+def _early_line(report: dict) -> str:
+    """The early contacts in words ('' without any)."""
+    early = report.get("early_contacts")
+    if not early:
+        return ""
+    gaps = early["start_gap"]
+    where = "" if gaps is None else (f", the person touched standing {gaps[0]:.2f}-"
+                                     f"{gaps[1]:.2f} m from the robot (between bodies) then")
+    return (f"{early['collisions']} of the collisions came within {early['within']:g} s of the "
+            f"start{where}.")
 
 
 def _bound_given_path(failures, never: int, runs: int) -> dict:
@@ -189,6 +218,8 @@ def markdown(report: dict) -> str:
         lines += ["", f"{report['goal_never_free']} of them no planner could win: a pedestrian "
                   "covered the goal from the robot's earliest possible arrival to the end "
                   "(`goal_free_at` empty)."]
+    if _early_line(report):
+        lines += ["", _early_line(report)]
     if "escapes" in report:
         lines += ["", "Collisions by their narrowest way out within the robot's limits, against "
                   "the logged people (`--escape`):", "", "| way out | collisions |", "|---|---|"]
@@ -245,6 +276,8 @@ def run(args) -> int:
         print(f"  {name:{width}s} {n}")
     if report["unclassified"]:
         print(f"  {'unclassified':{width}s} {report['unclassified']}")
+    if _early_line(report):
+        print(_early_line(report))
     if "goal_never_free" in report:
         print(f"goal never free (no planner could win): {report['goal_never_free']}")
     if "escapes" in report:

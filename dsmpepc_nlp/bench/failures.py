@@ -59,7 +59,7 @@ from ..core.geometry import footprint_points
 from ..core.world import World
 from ..sim.metrics import collision_kind, contact_approach_speed, run_length
 from ..sim.outcomes import OutcomeConfig
-from .crowd_rows import APPEARED, contact_age, footprint_core, goal_covered
+from .crowd_rows import APPEARED, OFFSTAGE, contact_age, footprint_core, goal_covered
 
 CLASSES = ("appeared-in-reach", "at-fault", "struck-moving", "struck-stopped",
            "goal-occupied", "stalled-near-goal-person", "stalled-beside-person",
@@ -159,7 +159,8 @@ def _collision(episode, robot, stop) -> tuple:
     else:
         speed = abs(float(episode.states[robot, 0, 3]))
     kind = collision_kind(episode, robot)
-    evidence = {"collision_kind": kind, "robot_speed": speed, "stopped_speed": STOPPED_SPEED,
+    evidence = {"collision_kind": kind, "contact_time": float(episode.times[k]),
+                "robot_speed": speed, "stopped_speed": STOPPED_SPEED,
                 "approach_speed": contact_approach_speed(episode, robot),
                 **_touched(episode, robot, k), **_appeared(episode, robot)}
     if evidence.get("contact_age", math.inf) < APPEARED:
@@ -171,7 +172,8 @@ def _collision(episode, robot, stop) -> tuple:
 
 def _touched(episode, robot, k) -> dict:
     """What lies nearest the footprint at state ``k``: ``touched`` (map / pedestrian / other),
-    its gap (m) and, for a pedestrian, its index and speed."""
+    its gap (m) and, for a pedestrian, its index, speed and ``start_gap``: the gap (m) between
+    them at the run's first state, when the pedestrian was on stage then."""
     fp = episode.footprint(robot)
     points = footprint_points(episode.states[robot, k, :3], fp[:, :2])
     best = {"touched": "nothing", "touched_gap": math.inf}
@@ -184,10 +186,24 @@ def _touched(episode, robot, k) -> dict:
         j = int(np.argmin(gaps))
         if gaps[j] < best["touched_gap"]:
             best = {"touched": "pedestrian", "touched_gap": float(gaps[j]), "pedestrian": j,
-                    "pedestrian_speed": float(np.linalg.norm(episode.ped_velocities[k, j]))}
+                    "pedestrian_speed": float(np.linalg.norm(episode.ped_velocities[k, j])),
+                    **_start_gap(episode, robot, j)}
     if best["touched_gap"] > 0.05 and episode.n_robots + len(episode.meta.get("parked", [])) > 1:
         best["touched"] = "other"  # nothing of the map or the people touches: a robot did
     return best
+
+
+def _start_gap(episode, robot, j) -> dict:
+    """``start_gap``: the gap (m) between the robot's footprint and pedestrian ``j`` at the
+    run's first state; {} when the pedestrian was not on stage then (a replay parks a person
+    whose track begins later at :data:`~dsmpepc_nlp.bench.crowd_rows.OFFSTAGE`)."""
+    if np.linalg.norm(episode.ped_positions[0, j]) > OFFSTAGE[0] / 10:
+        return {}
+    fp = episode.footprint(robot)
+    points = footprint_points(episode.states[robot, 0, :3], fp[:, :2])
+    gap = float(np.min(np.linalg.norm(points - episode.ped_positions[0, j], axis=-1) - fp[:, 2])
+                - episode.ped_radii[j])
+    return {"start_gap": gap} if math.isfinite(gap) else {}
 
 
 def _stuck(episode, robot, stop, outcome) -> tuple:
