@@ -47,8 +47,7 @@ class DockingConfig:
     ended the run: ETH/UCY's 'wandering' class). Docking's survivability test judges the turn
     and the approach together. pi/4 is the angle at which Nav2's rotation shim controller
     turns a robot in place before its path follower takes over (docs/method.md section 7.1).
-    On by default since the tuning episodes (CrowdNav seed 1, three settings; ETH/UCY eth and
-    hotel): 7 won, 1 lost, collisions unchanged (docs/results.md)."""
+    On by default: it won on the tuning episodes (docs/results.md)."""
 
     region_points: int = 8
     """Our extension, a count (0: off, as in :meth:`PlannerConfig.paper`): when the straight
@@ -60,9 +59,8 @@ class DockingConfig:
     the goal counts as arrived); the robot is judged by it, so any point that near is its goal,
     and a person standing beside the goal point need not keep it off the rest. 8 points put
     neighbours 0.15 m apart on the 0.2 m circle of a 0.3 m tolerance, under a person's
-    radius (docs/method.md section 7.1). On by default since the tuning episodes (CrowdNav
-    seed 1, circle and square invisible; ETH/UCY eth and hotel): 3 won, 0 lost, collisions
-    unchanged (docs/results.md)."""
+    radius (docs/method.md section 7.1). On by default: it won on the tuning episodes
+    (docs/results.md)."""
     region_turns: bool = True
     """With ``region_points``: whether a point of the goal's region that lies more than
     ``turn_in_place`` off the heading may be docked at (after a turn in place toward it). A
@@ -77,8 +75,7 @@ class DockingConfig:
     task ends there, as the simulator judges a fixed goal, so the rest of the way to the point
     is the next task's risk, the reason ``arrival_radius`` is read at all. With a person
     standing beside the goal the last 0.2 m are the riskiest of the way (docs/method.md
-    section 7.1). On by default since the tuning episodes (CrowdNav seed 1, circle and square
-    invisible; ETH/UCY eth and hotel): 1 won, 0 lost, collisions unchanged (docs/results.md)."""
+    section 7.1). On by default: it won on the tuning episodes (docs/results.md)."""
 
     curves: int = 0
     """Our extension, a count (0: off, as in :meth:`PlannerConfig.paper`): when neither the
@@ -134,8 +131,8 @@ class StallConfig:
     cheaper than the plan. The pose-following law turns only while it drives forward, so a
     robot facing a person just ahead has no way out of its own (docs/results.md; ours, as
     Nav2's back-up).
-    0.3 m/s is what one plan period's braking takes back (``accel_limit * dt``, the cap); on
-    by default since CrowdNav's tuning episodes: success 973 -> 980 of 1000."""
+    0.3 m/s is what one plan period's braking takes back (``accel_limit * dt``, the cap). On
+    by default: it won on the tuning episodes (docs/results.md)."""
     back_up_time: float = 1.0
     """How long the back-up rung reverses before braking, s (our choice: five plans)."""
     back_up_level: int = 1
@@ -150,8 +147,8 @@ class StallConfig:
     off. A person walking at a standing robot (CrowdNav's invisible robot, a replayed crowd)
     makes every forward way out cost as much as the wait, since the law cannot turn without
     first closing the gap; a reverse can open it. 0.5, "more likely
-    struck than not", was set before any run (ours); on by default since the tuning episodes
-    (CrowdNav seed 1, ETH/UCY eth and hotel): 10 won, 2 lost (docs/results.md)."""
+    struck than not", was set before any run (ours). On by default: it won on the tuning
+    episodes (docs/results.md)."""
 
     dodge: bool = True
     """With the rung on (``back_up`` > 0), a plan the robot expects to be struck on (its
@@ -161,9 +158,9 @@ class StallConfig:
     (``backup.dodge_trajectories``); the exact cost takes the cheapest if it is cheaper than
     the plan. The law turns only by driving forward along its curve, so a person walking at
     the robot's side leaves it no way out of its own; a failure search of CrowdNav's square
-    crossing (``dsmpepc failures --escape``) found a forward way out in 18 of 20 collisions
-    (ours; docs/method.md section 7.5). On by default since the tuning episodes (CrowdNav seed
-    1, three settings; ETH/UCY eth and hotel): 15 won, 7 lost, collisions 49 -> 37."""
+    crossing (``dsmpepc failures --escape``) found a forward way out of most of its
+    collisions (ours; docs/method.md section 7.5). On by default: it won on the tuning
+    episodes (docs/results.md)."""
     dodge_within: float = 5.0
     """s: the dodges answer a blow expected this soon, where the plan's survival at this time
     (the first step at or after it; the horizon's end when it is longer) is below
@@ -171,8 +168,8 @@ class StallConfig:
     threat the gate sees. 1 s is about the time a dodge takes to turn a quarter turn at the
     full turn rate: a blow further off is one the law's own plans can still steer around,
     and a dodge taken against it can turn the robot away from its way (the built-in hall's
-    follower, MPEPC, arrives with 1 s and times out with 5 s). Not the default: on the tuning
-    episodes 1 s won 3 cases and lost 7 against 5 s, collisions 37 -> 43 (docs/results.md)."""
+    follower, MPEPC, arrives with 1 s and times out with 5 s). Not the default: 1 s lost on
+    the tuning episodes (docs/results.md)."""
     threat_until_arrival: bool = True
     """Our extension (off in :meth:`PlannerConfig.paper`): with a fixed goal's tolerance
     (``plan(goal_tolerance=...)`` above 0), the gate reads a docked plan's survival where its
@@ -181,9 +178,7 @@ class StallConfig:
     Read at the horizon's end, a person who walks over the goal after the robot would have
     arrived replaced the docked way with a dodge (ETH/UCY univ, episode 22; docs/results.md).
     A followed goal's task does not end on arrival: its docked plans keep the horizon's end.
-    On by default since the tuning episodes (CrowdNav seed 1 circle and square invisible,
-    ETH/UCY eth and hotel): 1 won, 0 lost, collisions 33 -> 32, and 36 shared successes sooner,
-    none later (eth's mean 7.72 -> 6.73 s; docs/results.md)."""
+    On by default: it won on the tuning episodes (docs/results.md)."""
 
     turn_to_goal: float = math.pi / 4
     """rad (0: off): once stalled (from ``turn_level`` of the ladder on), the rung also sets
@@ -197,8 +192,8 @@ class StallConfig:
     with the person 0.4 m away, and the built-in hall's follower (MPEPC) took 6 s to turn
     round at 0.03 m/s (it still times out with the turns). Nav2's recoveries spin a stuck
     robot in place; pi/4 is docking's angle, Nav2's rotation shim's (ours; docs/method.md
-    section 7.5). Not over a docked plan. On by default since the tuning episodes (CrowdNav
-    seed 1, three settings; ETH/UCY eth and hotel): 8 won, 0 lost, collisions unchanged."""
+    section 7.5). Not over a docked plan. On by default: it won on the tuning episodes
+    (docs/results.md)."""
     turn_level: int = 1
     """The ladder's level from which ``turn_to_goal`` acts: 1, once stalled for a window; 0,
     on every plan."""

@@ -88,9 +88,8 @@ class MultistartSettings:
     """Starts straight ahead at ``v_limit`` with targets 1, 2, ... robot bounding radii away
     (``nudge-1``, ``nudge-2``): the law's shortest moves, which a robot edging forward between
     obstacles takes. The screen draws r uniformly over the box, so under 8 % of its points lie
-    within 0.6 m; two nudges find the best move of the t-corridor's stalled cycles (its
-    cross-check 89.3 -> 97.9 %), but lost one tuning run and won none, so they are off by
-    default (docs/nlp.md, "Nudges")."""
+    within 0.6 m; two nudges find the best move of the t-corridor's stalled cycles, but they
+    lost on the tuning episodes, so they are off by default (docs/nlp.md, "Nudges")."""
 
     def __post_init__(self):
         check_integers(self, {"n_spread": 0, "n_screen": 0, "n_solved": 1, "nudges": 0})
