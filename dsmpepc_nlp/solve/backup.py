@@ -145,13 +145,12 @@ def arrival_estimate(trajectories: Trajectory, goal, radius: float,
     return np.array([late[i] if step is None else step * dt for i, step in enumerate(steps)])
 
 
-def judge_turns(plan: Plan, state, cycle, goal_tolerance: float = 0.0) -> Plan | None:
-    """The cheapest of :func:`turn_trajectories` when, over the horizon lengthened by
-    ``stall.judge_beyond``, it costs less than ``plan`` (the exact cost over the longer
-    horizon, every one carried on past the horizon by :func:`docked_beyond`); None otherwise.
-    With ``stall.judge_sooner`` only the turns whose :func:`arrival_estimate` (within
-    ``goal_tolerance``, else ``docking.arrival_radius``) is sooner than the plan's compete.
-    The turn comes back as planned over the horizon and costed over it, as every plan is."""
+def judged(plan: Plan, state, cycle, goal_tolerance: float = 0.0) -> tuple:
+    """``(batch, total, arrival)``: the plan (row 0) and :func:`turn_trajectories` over the
+    horizon, their exact costs over the horizon lengthened by ``stall.judge_beyond`` (every
+    one carried on past the horizon by :func:`docked_beyond`) and their
+    :func:`arrival_estimate` (within ``goal_tolerance``, else ``docking.arrival_radius``), s.
+    What :func:`judge_turns` decides on, and ``tools/plan_profile.py`` prints."""
     config = cycle.config
     longer = lengthened(config, config.stall.judge_beyond)
     turns = turn_trajectories(plan, state, cycle.goal, config)
@@ -160,11 +159,21 @@ def judge_turns(plan: Plan, state, cycle, goal_tolerance: float = 0.0) -> Plan |
                          for f in dataclasses.fields(Trajectory)))
     carried = docked_beyond(batch, cycle.goal, config, longer)
     total = evaluate(carried, cycle.world, cycle.goal, longer).total
-    total = np.where(np.isfinite(total), total, np.inf)
+    radius = goal_tolerance if goal_tolerance > 0.0 else config.docking.arrival_radius
+    return (batch, np.where(np.isfinite(total), total, np.inf),
+            arrival_estimate(carried, cycle.goal, radius, config))
+
+
+def judge_turns(plan: Plan, state, cycle, goal_tolerance: float = 0.0) -> Plan | None:
+    """The cheapest of :func:`turn_trajectories` when, over the horizon lengthened by
+    ``stall.judge_beyond``, it costs less than ``plan`` (:func:`judged`); None otherwise.
+    With ``stall.judge_sooner`` only the turns whose arrival estimate is sooner than the
+    plan's compete. The turn comes back as planned over the horizon and costed over it, as
+    every plan is."""
+    config = cycle.config
+    batch, total, arrival = judged(plan, state, cycle, goal_tolerance)
     sooner = ""
     if config.stall.judge_sooner:
-        radius = goal_tolerance if goal_tolerance > 0.0 else config.docking.arrival_radius
-        arrival = arrival_estimate(carried, cycle.goal, radius, config)
         total[1:] = np.where(arrival[1:] < arrival[0], total[1:], np.inf)
     best = 1 + int(np.argmin(total[1:]))
     if not total[best] < total[0]:
@@ -173,7 +182,8 @@ def judge_turns(plan: Plan, state, cycle, goal_tolerance: float = 0.0) -> Plan |
         sooner = f", arriving by {arrival[best]:.2f} s against {arrival[0]:.2f} s"
     chosen = batch[best]
     cost = evaluate(chosen, cycle.world, cycle.goal, config)
-    message = (f"stalled; judged over {longer.horizon.duration:g} s, turning in place "
+    duration = lengthened(config, config.stall.judge_beyond).horizon.duration
+    message = (f"stalled; judged over {duration:g} s, turning in place "
                f"{_turn_named(best - 1, chosen, plan)}, then heading on (exact cost "
                f"{total[best]:.3f}{sooner}) is cheaper than the plan ({total[0]:.3f}); it "
                f"replaced: {plan.message}")
