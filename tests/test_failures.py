@@ -142,6 +142,8 @@ def test_the_report_counts_the_contacts_of_the_first_second(tmp_path):
     assert "1 of the collisions came within 1 s of the start, the person touched standing " \
         "0.60-0.60 m" in (tmp_path / "failures.md").read_text()
     assert "early_contacts" not in classify_folder(_folder(tmp_path / "late"))
+    evidence = report["failures"][0]["evidence"]
+    assert f"start_gap: {evidence['start_gap']:.2f}" in _text(evidence)    # the figure's box
 
 
 def _appearing(n, on_stage_from):
