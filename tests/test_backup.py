@@ -482,12 +482,7 @@ def test_judged_sooner_a_turn_must_also_arrive_before_the_plan(monkeypatch, orde
     if order == "plan-first":
         assert judged is None
         return
-    carried = backup.docked_beyond(
-        backup.Trajectory(*(np.concatenate([getattr(plan.trajectory, f.name)[None],
-                                            getattr(turns, f.name)])
-                            for f in dataclasses.fields(backup.Trajectory))),
-        cycle.goal, config, longer)
-    sooner = arrivals(carried, cycle.goal, 0.3, config)
+    sooner = backup.judged(plan, state, cycle, goal_tolerance=0.3)[2]     # as patched
     allowed = np.where(sooner[1:] < sooner[0], costs, np.inf)
     if not np.min(allowed) < own:
         assert judged is None and order == "one-turn-sooner"

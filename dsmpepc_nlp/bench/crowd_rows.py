@@ -16,6 +16,16 @@ from .runner import mean, outcome_rates, plan_time_summary, run_all
 OFFSTAGE = (1.0e4, 1.0e4)
 """Where pedestrians wait before their track starts and after it ends, m: the replay parks them
 there, and a gap near it is no pedestrian on stage, not a distance."""
+OFF_STAGE_BEYOND = OFFSTAGE[0] / 10
+"""m from the origin: a pedestrian farther out is parked off stage (:func:`off_stage`)."""
+
+
+def off_stage(positions) -> np.ndarray:
+    """Whether each pedestrian position (..., 2) is the replay's parking place, not a place on
+    stage (the replay parks people at :data:`OFFSTAGE` before and after their tracks)."""
+    return np.linalg.norm(np.asarray(positions, dtype=float), axis=-1) > OFF_STAGE_BEYOND
+
+
 APPEARED = 1.0
 """A pedestrian on stage for less than this at contact appeared beside the robot (its track
 began there, out of nowhere), s: braking from 1 m/s at 1.5 m/s^2 alone takes 0.67 s, and a
@@ -48,7 +58,7 @@ def contact_age(episode, robot: int = 0) -> float:
     gaps = np.linalg.norm(episode.ped_positions[k] - episode.states[robot, k, :2], axis=1) \
         - episode.ped_radii
     j = int(np.argmin(gaps))
-    offstage = np.linalg.norm(episode.ped_positions[:k + 1, j], axis=1) > OFFSTAGE[0] / 10
+    offstage = off_stage(episode.ped_positions[:k + 1, j])
     gone = np.flatnonzero(offstage)
     return float(episode.times[k] - (episode.times[gone[-1] + 1] if gone.size else 0.0))
 
@@ -102,7 +112,7 @@ def summarise(rows) -> dict:
     """
     # A gap near OFFSTAGE means no pedestrian was on stage while the robot ran: not a distance.
     met = [r for r in rows if r.get("min_distance") is not None
-           and r["min_distance"] < OFFSTAGE[0] / 10]
+           and r["min_distance"] < OFF_STAGE_BEYOND]
     gaps = [r["min_distance"] for r in met]
     n = len(rows)
     kinds = [r.get("collision_kind") for r in rows]

@@ -59,7 +59,7 @@ from ..core.geometry import footprint_points
 from ..core.world import World
 from ..sim.metrics import collision_kind, contact_approach_speed, run_length
 from ..sim.outcomes import OutcomeConfig
-from .crowd_rows import APPEARED, OFFSTAGE, contact_age, footprint_core, goal_covered
+from .crowd_rows import APPEARED, contact_age, footprint_core, goal_covered, off_stage
 
 CLASSES = ("appeared-in-reach", "at-fault", "struck-moving", "struck-stopped",
            "goal-occupied", "stalled-near-goal-person", "stalled-beside-person",
@@ -181,8 +181,7 @@ def _touched(episode, robot, k) -> dict:
         gap = float(np.min(World(episode.grid).static_distance(points) - fp[:, 2]))
         best = {"touched": "map", "touched_gap": gap}
     if episode.ped_radii.size:
-        d = np.linalg.norm(points[:, None, :] - episode.ped_positions[k][None], axis=-1)
-        gaps = (d - fp[:, 2][:, None] - episode.ped_radii[None]).min(axis=0)
+        gaps = _pedestrian_gaps(episode, robot, k)
         j = int(np.argmin(gaps))
         if gaps[j] < best["touched_gap"]:
             best = {"touched": "pedestrian", "touched_gap": float(gaps[j]), "pedestrian": j,
@@ -193,16 +192,22 @@ def _touched(episode, robot, k) -> dict:
     return best
 
 
+def _pedestrian_gaps(episode, robot, k) -> np.ndarray:
+    """m, per pedestrian: the gap between the robot's footprint circles and their body at
+    state ``k``."""
+    fp = episode.footprint(robot)
+    points = footprint_points(episode.states[robot, k, :3], fp[:, :2])
+    d = np.linalg.norm(points[:, None, :] - episode.ped_positions[k][None], axis=-1)
+    return (d - fp[:, 2][:, None] - episode.ped_radii[None]).min(axis=0)
+
+
 def _start_gap(episode, robot, j) -> dict:
     """``start_gap``: the gap (m) between the robot's footprint and pedestrian ``j`` at the
     run's first state; {} when the pedestrian was not on stage then (a replay parks a person
-    whose track begins later at :data:`~dsmpepc_nlp.bench.crowd_rows.OFFSTAGE`)."""
-    if np.linalg.norm(episode.ped_positions[0, j]) > OFFSTAGE[0] / 10:
+    whose track begins later: :func:`~dsmpepc_nlp.bench.crowd_rows.off_stage`)."""
+    if off_stage(episode.ped_positions[0, j]):
         return {}
-    fp = episode.footprint(robot)
-    points = footprint_points(episode.states[robot, 0, :3], fp[:, :2])
-    gap = float(np.min(np.linalg.norm(points - episode.ped_positions[0, j], axis=-1) - fp[:, 2])
-                - episode.ped_radii[j])
+    gap = float(_pedestrian_gaps(episode, robot, 0)[j])
     return {"start_gap": gap} if math.isfinite(gap) else {}
 
 

@@ -89,4 +89,3 @@ class StallMonitor:
         gain = self.config.stall.progress_gain(level)
         return (f"stalled (moved < {self.config.stall.min_displacement:g} m in "
                 f"{self.config.stall.window:g} s): ladder level {level}, progress weight x{gain:g}")
-

@@ -21,8 +21,8 @@ from ..sim.outcomes import OutcomeConfig
 from .plots import _footprint, _limits, draw_cost_panel, draw_map, on_stage
 
 EVIDENCE_KEYS = ("collision_kind", "contact_time", "touched", "start_gap", "robot_speed",
-                 "approach_speed", "contact_age",
-                 "escape", "net_displacement", "path_in_window", "reversals", "goal_distance",
+                 "approach_speed", "contact_age", "escape", "net_displacement",
+                 "path_in_window", "reversals", "goal_distance",
                  "goal_occupied_share", "goal_person_distance", "person_gap", "person_speed",
                  "gap_width", "robot_width", "stall_level")
 """Evidence printed in a scene, in this order (those the class has)."""
