@@ -70,12 +70,12 @@ def planner_for(footprint):
 
 def assert_control_in_limits(plan, config):
     """Forward within the robot's limits (the rung's dodges included); reverse only for the
-    back-up rung, at most its speed (a planner reused across situations can think itself
-    stalled)."""
+    back-up rung and its last resort, at most the rung's speed (a planner reused across
+    situations can think itself stalled)."""
     v, omega = plan.control
     robot = config.robot
     assert math.isfinite(v) and math.isfinite(omega)
-    low = -backup.back_up_speed(config) if plan.status == "backing-up" else 0.0
+    low = -backup.back_up_speed(config) if plan.status in ("backing-up", "clearing") else 0.0
     assert low <= v <= robot.v_limit and abs(omega) <= robot.omega_limit
 
 
@@ -89,7 +89,7 @@ def test_any_situation_gives_a_finite_control_within_limits(situation, footprint
     assert np.all(np.isfinite(plan.trajectory.poses)) and np.all(np.isfinite(plan.x))
     assert not math.isnan(plan.fun)
     assert plan.status in ("sampling", "docked", "stopped", "start-in-collision", "backing-up",
-                           "dodging", "turning")
+                           "dodging", "turning", "clearing")
 
 
 @settings(max_examples=EXAMPLES // 20)
@@ -121,4 +121,4 @@ def test_the_nlp_path_also_gives_finite_controls_within_limits(situation, method
     assert_control_in_limits(plan, planner.config)
     assert np.all(np.isfinite(plan.trajectory.poses)) and not math.isnan(plan.fun)
     assert plan.status in ("nlp", "sampling-fallback", "stopped", "start-in-collision",
-                           "backing-up", "dodging", "turning")
+                           "backing-up", "dodging", "turning", "clearing")

@@ -220,7 +220,7 @@ class PlannerConfig:
                                                     arrival_at_tolerance=False))
         changes.setdefault("stall", StallConfig(levels=0, back_up=0.0, dodge=False,
                                                   turn_to_goal=0.0, judge_beyond=0.0,
-                                                  judge_sooner=False,
+                                                  judge_sooner=False, doomed_below=0.0,
                                                   threat_until_arrival=False))
         changes.setdefault("prediction", PredictionConfig(speeding_up=0.0))
         changes.setdefault("control_law", ControlLawConfig(r_thresh_from_robot=False))

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..core.config import PlannerConfig
 from ..core.control_law import Trajectory, commanded, rollout_from
-from ..core.exact_cost import evaluate
+from ..core.exact_cost import evaluate, exact_geometry
 from . import docking
 from .records import Plan
 
@@ -255,6 +255,9 @@ def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) 
     stall = config.stall
     if stall.back_up <= 0.0:
         return None
+    cleared = clearest(plan, state, cycle, goal_tolerance)
+    if cleared is not None:
+        return cleared
     arrival = arrival_time(plan, cycle.goal, goal_tolerance, config)
     threat = threatened(plan, config, arrival)
     stalled = level >= stall.back_up_level
@@ -300,12 +303,83 @@ def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) 
                f"struck{soon} (survival {_survival(plan, config, within):.2f} < "
                f"{stall.back_up_threat:g})")
     if kind == "reverse":
-        what = (f"backing up {('straight', 'curving left', 'curving right')[first]} at "
-                f"{stall.back_up:g} m/s")
+        what = _reverse_named(first, config)
     elif kind == "dodge":
-        what = (f"dodging: turning {'left' if chosen.omega[0] > 0 else 'right'} at "
-                f"{abs(float(chosen.omega[0])):.2f} rad/s, then ahead")
+        what = _dodge_named(chosen)
     message = (f"{why} (exact cost {plan.fun:.3f}): {what} (exact cost {total[best]:.3f}); "
                f"it replaced: {plan.message}")
     status = {"reverse": "backing-up", "dodge": "dodging", "turn": "turning"}[kind]
     return _replaced(plan, chosen, costs[best], message, status)
+
+
+
+def _reverse_named(index: int, config: PlannerConfig) -> str:
+    """Row ``index`` of :func:`back_up_trajectories`, in words."""
+    return (f"backing up {('straight', 'curving left', 'curving right')[index]} at "
+            f"{config.stall.back_up:g} m/s")
+
+
+def _dodge_named(chosen: Trajectory) -> str:
+    """A dodge of :func:`dodge_trajectories`, in words."""
+    return (f"dodging: turning {'left' if chosen.omega[0] > 0 else 'right'} at "
+            f"{abs(float(chosen.omega[0])):.2f} rad/s, then ahead")
+
+
+CLEARER = 1e-3
+"""m: the clearest way replaces a doomed plan only if its gap is wider by more than this (a
+millimetre, above round-off)."""
+
+
+def _batch(trajectories) -> Trajectory:
+    """One batch of ``trajectories`` (each a batch or a single trajectory), in order."""
+    rows = [t if t.z.ndim == 2 else Trajectory(*(getattr(t, f.name)[None]
+                                                for f in dataclasses.fields(Trajectory)))
+            for t in trajectories]
+    return Trajectory(*(np.concatenate([getattr(t, f.name) for t in rows])
+                        for f in dataclasses.fields(Trajectory)))
+
+
+def clearance(trajectories: Trajectory, cycle, within: float) -> np.ndarray:
+    """m, per trajectory of the batch: the smallest gap between its footprint and any object
+    (the map; the people where the cost predicts them) over its first ``within`` seconds,
+    the exact geometry's distance; inf with nothing around."""
+    distance = exact_geometry(trajectories, cycle.world, cycle.goal, cycle.config).distance
+    if distance.shape[-1] == 0:
+        return np.full(len(trajectories), np.inf)
+    steps = math.ceil(within / cycle.config.horizon.dt - 1e-9)
+    return distance[:, :steps + 1].min(axis=(1, 2))
+
+
+def clearest(plan: Plan, state, cycle, goal_tolerance: float = 0.0) -> Plan | None:
+    """The clearest way out of a doomed ``plan``, or None (keep it; ``stall.doomed_below``).
+
+    Doomed: the plan's survival over the next ``stall.clearance_within`` seconds (a docked
+    plan's until its :func:`arrival_time` if that is sooner: the task ends there) is below
+    ``doomed_below``. Then the plan, the forward dodges and the reverses
+    (:func:`dodge_trajectories`, :func:`back_up_trajectories`) are set by their
+    :func:`clearance` over the next ``clearance_within`` seconds instead of their cost, and
+    the clearest replaces the plan when its gap is wider than the plan's."""
+    config = cycle.config
+    stall = config.stall
+    if not stall.doomed_below > 0.0:
+        return None
+    within = min(stall.clearance_within, arrival_time(plan, cycle.goal, goal_tolerance, config))
+    survival = _survival(plan, config, within)
+    if survival >= stall.doomed_below:
+        return None
+    dodges = dodge_trajectories(state, config)
+    candidates = _batch([plan.trajectory, dodges, back_up_trajectories(state, config)])
+    gaps = clearance(candidates, cycle, stall.clearance_within)
+    gaps = np.where(np.isnan(gaps), -np.inf, gaps)           # a gap not measured keeps nothing
+    best = int(np.argmax(gaps))
+    if not gaps[best] > gaps[0] + CLEARER:
+        return None
+    chosen = candidates[best]
+    what = (_dodge_named(chosen) if best <= len(dodges)
+            else _reverse_named(best - 1 - len(dodges), config))
+    message = (f"the plan is doomed (survival {survival:.2f} < {stall.doomed_below:g} within "
+               f"{within:g} s): the clearest way over {stall.clearance_within:g} s, {what}, "
+               f"keeps {gaps[best]:.2f} m against the plan's {gaps[0]:.2f} m; it replaced: "
+               f"{plan.message}")
+    cost = evaluate(chosen, cycle.world, cycle.goal, config)
+    return _replaced(plan, chosen, cost, message, "clearing")

@@ -39,7 +39,7 @@ __all__ = ["StartRecord"]
 
 
 STATUSES = ("nlp", "sampling", "sampling-fallback", "docked", "stopped", "start-in-collision",
-            "sampling-compiling", "backing-up", "dodging", "turning")
+            "sampling-compiling", "backing-up", "dodging", "turning", "clearing")
 """Where a plan came from: the NLP, the sampler as chosen solver, the sampler after every NLP
 start failed, docking at a fixed goal, the stop trajectory when nothing finite was found, any
 of these from a start whose footprint already overlaps the map or an obstacle
@@ -47,9 +47,10 @@ of these from a start whose footprint already overlaps the map or an obstacle
 sampler while the NLP's library for this cycle's structure compiles in the background
 (``sampling-compiling``), or the stall ladder's back-up rung (``backing-up``: a reverse
 trajectory the law cannot make, cheaper by the exact cost than standing) and its dodges
-(``dodging``: a hard turn, then ahead, against a plan that expects to be struck) and its turn
-in place toward the goal of a stalled robot facing away from it (``turning``). New statuses are
-appended, so stored indices keep their meaning."""
+(``dodging``: a hard turn, then ahead, against a plan that expects to be struck), its turn
+in place toward the goal of a stalled robot facing away from it (``turning``), and its last
+resort against a plan struck almost surely within the second, the way that keeps the widest
+gap (``clearing``). New statuses are appended, so stored indices keep their meaning."""
 
 
 @dataclass(frozen=True)
