@@ -111,8 +111,12 @@ def test_a_docked_plan_is_doomed_only_before_the_task_ends():
     assert "(survival 0.00 < 0.05 within 1 s)" in followed.message
 
 
-def test_off_by_default_in_the_paper_preset_and_without_the_rung():
+def test_on_by_default_off_in_the_paper_preset_and_without_the_rung():
+    assert PlannerConfig().stall.doomed_below == 0.05
+    assert PlannerConfig().stall.clearance_within == 1.0
     assert PlannerConfig.paper().stall.doomed_below == 0.0
+    default = Planner(PlannerConfig(), SOLVER).plan(DRIVING, CROSSING, GOAL)
+    assert default.status == "clearing", default.message
     off = Planner(doomed(below=0.0), SOLVER).plan(DRIVING, CROSSING, GOAL)
     assert off.status != "clearing"
     no_rung = Planner(doomed(back_up=0.0), SOLVER).plan(DRIVING, CROSSING, GOAL)

@@ -1,5 +1,6 @@
 """The exact cost: time to collision by hand, the paper's three lemmas, the breakdown."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -106,20 +107,45 @@ def test_lemma2_collision_zeroes_survivability(seed, step, config):
     assert np.all(survival[:, step:] == 0.0)
 
 
-@pytest.mark.parametrize("config", [MP, DS], ids=["mpepc", "ds-mpepc"])
-@pytest.mark.parametrize("where", ["pedestrian", "wall"])
-def test_lemma3_robot_in_collision_does_not_move(config, where):
+def _in_contact(where):
     occupied = np.zeros((40, 40), bool)
     obstacles = ()
     if where == "wall":
         occupied[:, 21:] = True       # the robot at x = 2.0 sits 0.1 m inside the wall
     else:
         obstacles = (DynamicObstacle.pedestrian((2.2, 2.0), (-0.3, 0.0), 0.3),)
-    world = World(OccupancyGrid.from_array(occupied, 0.1), obstacles)
+    return World(OccupancyGrid.from_array(occupied, 0.1), obstacles)
+
+
+@pytest.mark.parametrize("config", [MP, DS], ids=["mpepc", "ds-mpepc"])
+@pytest.mark.parametrize("where", ["pedestrian", "wall"])
+def test_lemma3_robot_in_collision_does_not_move(config, where):
+    """The cost's lemma, for the law's trajectories: the planner without the back-up rung's
+    last resort (``stall.doomed_below`` = 0), which departs from it by design (next test)."""
+    config = dataclasses.replace(config, stall=dataclasses.replace(config.stall,
+                                                                   doomed_below=0.0))
     planner = Planner(config, SolverConfig.sampling(n_samples=512))
-    plan = planner.plan(RobotState(2.0, 2.0, 0.0), world, (0.5, 0.5), dock=False)
+    plan = planner.plan(RobotState(2.0, 2.0, 0.0), _in_contact(where), (0.5, 0.5), dock=False)
     assert plan.control[0] == 0.0
     assert np.all(plan.trajectory.v == 0.0)
+
+
+@pytest.mark.parametrize("config", [MP, DS], ids=["mpepc", "ds-mpepc"])
+def test_a_robot_in_collision_backs_out_with_the_last_resort(config):
+    """Every way is doomed in contact, so the product's last resort takes the one that keeps
+    the widest gap over the next second (docs/method.md section 7.5): a reverse, away from
+    the person walking into it. Against a wall the gap of every way is the start's overlap
+    (the smallest over the second: the wall does not come closer), they tie, and the robot
+    stands as Lemma 3 says."""
+    assert config.stall.doomed_below > 0.0
+    planner = Planner(config, SolverConfig.sampling(n_samples=512))
+    world = _in_contact("pedestrian")
+    plan = planner.plan(RobotState(2.0, 2.0, 0.0), world, (0.5, 0.5), dock=False)
+    assert plan.status == "start-in-collision" and plan.control[0] < 0.0, plan.message
+    assert "the plan is doomed" in plan.message and "backing up" in plan.message
+    assert plan.trajectory.poses[-1, 0] < 2.0
+    wall = planner.plan(RobotState(2.0, 2.0, 0.0), _in_contact("wall"), (0.5, 0.5), dock=False)
+    assert wall.control[0] == 0.0 and "doomed" not in wall.message
 
 
 def _open_world():

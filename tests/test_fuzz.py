@@ -70,12 +70,15 @@ def planner_for(footprint):
 
 def assert_control_in_limits(plan, config):
     """Forward within the robot's limits (the rung's dodges included); reverse only for the
-    back-up rung and its last resort, at most the rung's speed (a planner reused across
+    back-up rung and its last resort, at most the rung's speed, also from a start in collision
+    (its status then says so and its message names the reverse; a planner reused across
     situations can think itself stalled)."""
     v, omega = plan.control
     robot = config.robot
     assert math.isfinite(v) and math.isfinite(omega)
-    low = -backup.back_up_speed(config) if plan.status in ("backing-up", "clearing") else 0.0
+    reversing = plan.status in ("backing-up", "clearing") or (
+        plan.status == "start-in-collision" and "backing up" in plan.message)
+    low = -backup.back_up_speed(config) if reversing else 0.0
     assert low <= v <= robot.v_limit and abs(omega) <= robot.omega_limit
 
 
