@@ -34,7 +34,7 @@ def doomed(below=0.05, within=1.0, **stall) -> PlannerConfig:
 def gap(trajectory, world, config, within=1.0) -> float:
     """The smallest footprint-to-person gap over the first ``within`` s, from the geometry."""
     steps = round(within / config.horizon.dt)
-    return float(exact_geometry(backup._batch([trajectory]), world, GOAL,
+    return float(exact_geometry(backup.stacked([trajectory]), world, GOAL,
                                 config).distance[0, :steps + 1].min())
 
 
@@ -64,7 +64,7 @@ def test_the_clearest_way_is_the_widest_gap_of_the_plan_the_dodges_and_the_rever
     cycle = Cycle.prepare(DRIVING, CROSSING, GOAL, config)
     plan = Planner(doomed(below=0.0, back_up=0.0), SOLVER).plan(DRIVING, CROSSING, GOAL)
     cleared = backup.clearest(plan, DRIVING, cycle)
-    ways = backup._batch([plan.trajectory, backup.dodge_trajectories(DRIVING, config),
+    ways = backup.stacked([plan.trajectory, backup.dodge_trajectories(DRIVING, config),
                           backup.back_up_trajectories(DRIVING, config)])
     gaps = backup.clearance(ways, cycle, 1.0)
     assert gaps.shape == (1 + 96 + 3,)

@@ -13,6 +13,9 @@ and takes the cheapest when it is cheaper than the plan. ``StallConfig.back_up``
 off) and ``back_up_time``; docs/method.md section 7.5. With it come forward dodges against a
 plan the robot expects to be struck on (``StallConfig.dodge``) and, once stalled, turns in place
 each followed by the law (``StallConfig.turn_to_goal``): moves the law cannot make either.
+Its last resort (``StallConfig.doomed_below``, :func:`clearest`): over a plan struck almost
+surely within the next second, where the cost's collision term has saturated for every way
+near it, the way that keeps the widest gap over that second, not the cheapest.
 """
 
 from __future__ import annotations
@@ -154,9 +157,7 @@ def judged(plan: Plan, state, cycle, goal_tolerance: float = 0.0) -> tuple:
     config = cycle.config
     longer = lengthened(config, config.stall.judge_beyond)
     turns = turn_trajectories(plan, state, cycle.goal, config)
-    batch = Trajectory(*(np.concatenate([getattr(plan.trajectory, f.name)[None],
-                                         getattr(turns, f.name)])
-                         for f in dataclasses.fields(Trajectory)))
+    batch = stacked([plan.trajectory, turns])
     carried = docked_beyond(batch, cycle.goal, config, longer)
     total = evaluate(carried, cycle.world, cycle.goal, longer).total
     radius = goal_tolerance if goal_tolerance > 0.0 else config.docking.arrival_radius
@@ -277,8 +278,7 @@ def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) 
         [("turn", turn_trajectories(plan, state, cycle.goal, config))] if turn else [])
     if not sets:
         return None
-    candidates = Trajectory(*(np.concatenate([getattr(t, f.name) for _, t in sets])
-                              for f in dataclasses.fields(Trajectory)))
+    candidates = stacked([t for _, t in sets])
     costs = evaluate(candidates, cycle.world, cycle.goal, config)
     total = np.where(np.isfinite(costs.total), costs.total, np.inf)
     best = int(np.argmin(total))
@@ -312,7 +312,6 @@ def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) 
     return _replaced(plan, chosen, costs[best], message, status)
 
 
-
 def _reverse_named(index: int, config: PlannerConfig) -> str:
     """Row ``index`` of :func:`back_up_trajectories`, in words."""
     return (f"backing up {('straight', 'curving left', 'curving right')[index]} at "
@@ -330,7 +329,7 @@ CLEARER = 1e-3
 millimetre, above round-off)."""
 
 
-def _batch(trajectories) -> Trajectory:
+def stacked(trajectories) -> Trajectory:
     """One batch of ``trajectories`` (each a batch or a single trajectory), in order."""
     rows = [t if t.z.ndim == 2 else Trajectory(*(getattr(t, f.name)[None]
                                                 for f in dataclasses.fields(Trajectory)))
@@ -368,7 +367,7 @@ def clearest(plan: Plan, state, cycle, goal_tolerance: float = 0.0) -> Plan | No
     if survival >= stall.doomed_below:
         return None
     dodges = dodge_trajectories(state, config)
-    candidates = _batch([plan.trajectory, dodges, back_up_trajectories(state, config)])
+    candidates = stacked([plan.trajectory, dodges, back_up_trajectories(state, config)])
     gaps = clearance(candidates, cycle, stall.clearance_within)
     gaps = np.where(np.isnan(gaps), -np.inf, gaps)           # a gap not measured keeps nothing
     best = int(np.argmax(gaps))
