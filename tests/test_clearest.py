@@ -106,6 +106,9 @@ def test_a_docked_plan_is_doomed_only_before_the_task_ends():
     docked = Planner(doomed(), SOLVER).plan(state, crossing, goal, goal_tolerance=0.3)
     assert docked.status == "docked" and docked.cost.survivability[5] < 0.05
     assert backup.arrival_time(docked, goal, 0.3, doomed()) == pytest.approx(0.4)
+    cycle = Cycle.prepare(state, crossing, goal, doomed())
+    assert backup.clearest(docked, state, cycle, arrival=0.4) is None
+    assert backup.clearest(docked, state, cycle).status == "clearing"     # read to 1 s
     followed = Planner(doomed(), SOLVER).plan(state, crossing, goal)
     assert followed.status == "clearing", followed.message
     assert "(survival 0.00 < 0.05 within 1 s)" in followed.message

@@ -31,15 +31,15 @@ from pathlib import Path
 import numpy as np
 
 from dsmpepc_nlp.bench.failure_report import read_tables
-from dsmpepc_nlp.bench.params import overrides, replaced
+from dsmpepc_nlp.bench.params import named_solver, overrides, replaced
 from dsmpepc_nlp.core.exact_cost import evaluate
-from dsmpepc_nlp.core.solver_config import SolverConfig
+from dsmpepc_nlp.core.solver_config import SOLVER_NAMES, SolverConfig
 from dsmpepc_nlp.sim.episode import Episode
 from dsmpepc_nlp.solve import backup
 from dsmpepc_nlp.solve.planner import Planner
 
-SOLVERS = {"ipopt": SolverConfig, "newton": SolverConfig.fast, "sampling": SolverConfig.sampling}
-"""The solver an episode logged (its ``method``) and the configuration that makes it."""
+SOLVERS = {SolverConfig.named(name).method: name for name in SOLVER_NAMES}
+"""The solver's name (``--solver``) of each method an episode logs (``ipopt``: ``nlp``)."""
 
 
 def collision_episodes(out_dir) -> list:
@@ -67,10 +67,7 @@ def replay(path, before: float, within: float, pairs: tuple = ()) -> dict:
     and within ``within`` s, and the cheapest exact cost of it and the rung's ways."""
     log = Episode.load(path)
     config = replaced(log.config(), dict(pairs))
-    method, n_samples = log.meta["solver"], log.meta.get("n_samples")
-    solver = SOLVERS[method]()
-    if n_samples:
-        solver = solver.replace(n_samples=int(n_samples))
+    solver = named_solver(SOLVERS[log.meta["solver"]], log.meta.get("n_samples"))
     planner = Planner(config, solver, compile="wait")     # as the benchmarks plan
     tolerance = float(log.meta["goal_tolerances"][0])
     contact, dt = float(log.outcome_times[0]), config.horizon.dt

@@ -256,10 +256,10 @@ def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) 
     stall = config.stall
     if stall.back_up <= 0.0:
         return None
-    cleared = clearest(plan, state, cycle, goal_tolerance)
+    arrival = arrival_time(plan, cycle.goal, goal_tolerance, config)
+    cleared = clearest(plan, state, cycle, arrival)
     if cleared is not None:
         return cleared
-    arrival = arrival_time(plan, cycle.goal, goal_tolerance, config)
     threat = threatened(plan, config, arrival)
     stalled = level >= stall.back_up_level
     reverse = stands(plan, config) and (stalled or threat)
@@ -349,11 +349,12 @@ def clearance(trajectories: Trajectory, cycle, within: float) -> np.ndarray:
     return distance[:, :steps + 1].min(axis=(1, 2))
 
 
-def clearest(plan: Plan, state, cycle, goal_tolerance: float = 0.0) -> Plan | None:
+def clearest(plan: Plan, state, cycle, arrival: float = math.inf) -> Plan | None:
     """The clearest way out of a doomed ``plan``, or None (keep it; ``stall.doomed_below``).
 
-    Doomed: the plan's survival over the next ``stall.clearance_within`` seconds (a docked
-    plan's until its :func:`arrival_time` if that is sooner: the task ends there) is below
+    Doomed: the plan's survival over the next ``stall.clearance_within`` seconds (until
+    ``arrival``, s, if that is sooner: a docked plan's :func:`arrival_time`, where the task
+    ends, as :func:`consider` reads it) is below
     ``doomed_below``. Then the plan, the forward dodges and the reverses
     (:func:`dodge_trajectories`, :func:`back_up_trajectories`) are set by their
     :func:`clearance` over the next ``clearance_within`` seconds instead of their cost, and
@@ -362,7 +363,7 @@ def clearest(plan: Plan, state, cycle, goal_tolerance: float = 0.0) -> Plan | No
     stall = config.stall
     if not stall.doomed_below > 0.0:
         return None
-    within = min(stall.clearance_within, arrival_time(plan, cycle.goal, goal_tolerance, config))
+    within = min(stall.clearance_within, arrival)
     survival = _survival(plan, config, within)
     if survival >= stall.doomed_below:
         return None
