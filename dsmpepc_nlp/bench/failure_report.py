@@ -24,7 +24,7 @@ from ..core.config import RobotState
 from ..core.errors import InputError
 from ..core.files import atomic_write_text
 from ..core.jsonio import dumps, json_clean
-from ..sim.episode import Episode
+from ..sim.episode import Episode, seconds
 from ..sim.panels import cost_panels
 from ..solve.stall import StallMonitor
 from ..viz import figures
@@ -236,7 +236,7 @@ def markdown(report: dict) -> str:
             evidence = ", ".join(f"{k} {_short(v)}" for k, v in f["evidence"].items()
                                  if not isinstance(v, list))
             lines.append(f"- {f['label']} (robot {f['robot']}, {f['outcome']}, stuck cycle "
-                         f"t = {f['time']:.1f} s): {evidence}")
+                         f"t = {seconds(f['time'])} s): {evidence}")
     if report["unclassified_runs"]:
         lines += ["", "## unclassified", ""]
         lines += [f"- {u['label']}: {u['reason']}" for u in report["unclassified_runs"]]

@@ -17,6 +17,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
 from ..core.files import atomic_savefig
+from ..sim.episode import seconds
 from ..sim.outcomes import OutcomeConfig
 from .plots import _footprint, _limits, draw_cost_panel, draw_map, on_stage
 
@@ -38,7 +39,8 @@ def _text(evidence: dict) -> str:
             lines.append(f"{key}: {value:.2f}" if isinstance(value, float) else f"{key}: {value}")
     if "goal_free_at" in evidence:  # a replay's draw: None, no planner could have arrived
         free = evidence["goal_free_at"]
-        lines.append("goal_free_at: never" if free is None else f"goal_free_at: {free:.1f} s")
+        lines.append("goal_free_at: never" if free is None
+                     else f"goal_free_at: {seconds(free)} s")
     return "\n".join(lines)
 
 
@@ -81,8 +83,9 @@ def draw_scene(ax, episode, failure: dict, label: str, evidence: bool = True) ->
     _limits(episode, ax)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    ax.set_title(f"{label}\n{failure['outcome']} at {episode.outcome_times[robot]:.1f} s, "
-                 f"stuck cycle t = {failure['time']:.1f} s", fontsize=9)
+    ended = seconds(episode.outcome_times[robot])
+    ax.set_title(f"{label}\n{failure['outcome']} at {ended} s, "
+                 f"stuck cycle t = {seconds(failure['time'])} s", fontsize=9)
     if not evidence:
         return
     ax.text(0.02, 0.98, _text(failure["evidence"]), transform=ax.transAxes, fontsize=6.5,

@@ -22,6 +22,7 @@ from matplotlib.patches import Circle
 
 from ..core.errors import InputError
 from ..core.geometry import footprint_points
+from ..sim.episode import seconds
 from ..sim.metrics import collision_kind
 
 ROBOT_COLOURS = ("tab:blue", "tab:purple", "tab:cyan", "tab:olive", "tab:brown", "tab:pink",
@@ -108,7 +109,7 @@ def outcome_caption(episode) -> str:
     for i, (name, outcome) in enumerate(zip(episode.meta["robots"], episode.outcomes)):
         kind = collision_kind(episode, i) if outcome == "collision" else None
         when = episode.outcome_times[i] if i < len(episode.outcome_times) else None
-        at = f" at t = {when:.1f} s" if when is not None and np.isfinite(when) else ""
+        at = f" at t = {seconds(when)} s" if when is not None and np.isfinite(when) else ""
         words.append(f"{name}: {outcome}{f' ({kind})' if kind else ''}{at}")
     return "outcome: " + "; ".join(words)
 
@@ -164,7 +165,7 @@ def draw_cycle(ax, episode, cycle: int, *, samples: bool = True, title: bool = T
     _axes_labels(ax)
     if title:
         ax.set_title(f"{episode.meta['scenario']} ({episode.meta['variant']}), "
-                     f"t = {episode.times[k]:.1f} s", fontsize=9)
+                     f"t = {seconds(episode.times[k])} s", fontsize=9)
 
 
 def episode_figure(episode, *, cycle: int | None = None, path=None):
