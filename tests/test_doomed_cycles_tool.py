@@ -37,7 +37,7 @@ def test_a_collision_after_doomed_plans_is_counted_with_the_logged_plans(tmp_pat
     assert module.main([str(tmp_path), "--before", "0.5", "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["summary"] == {"collisions": 1, "below": 0.05, "doomed_by_the_end": 1,
-                                 "doomed_within": 1, "not_replayed": []}
+                                 "doomed_within": 1, "cleared": 1, "not_replayed": []}
     run = report["runs"]["toy episode=0"]
     contact = float(episode.outcome_times[0])
     assert run["replayed"] is True and run["contact"] == contact
@@ -57,13 +57,16 @@ def test_a_replay_with_other_settings_than_the_runs_is_caught(tmp_path, capsys, 
     out = capsys.readouterr().out
     assert "(NOT the logged plans)" in out and "not replayed: 1" in out
     assert "1 of 1 collisions came after a plan doomed by the horizon's end" in out
+    assert "0 after a plan the last resort made (clearing)" in out     # it was off
 
 
 def test_the_summary_counts_doom_below_the_threshold_only(tool):
     summary = tool("doomed_cycles").summary
-    runs = {"a": {"replayed": True, "plans": [{"survival_end": 0.04, "survival_within": 0.5}]},
-            "b": {"replayed": False, "plans": [{"survival_end": 0.2, "survival_within": 0.3}]},
+    runs = {"a": {"replayed": True, "plans": [{"survival_end": 0.04, "survival_within": 0.5,
+                                               "status": "nlp"}]},
+            "b": {"replayed": False, "plans": [{"survival_end": 0.2, "survival_within": 0.3,
+                                                "status": "clearing"}]},
             "c": {"replayed": True, "plans": []}}
     assert summary(runs, 0.05) == {"collisions": 3, "below": 0.05, "doomed_by_the_end": 1,
-                                   "doomed_within": 0, "not_replayed": ["b"]}
+                                   "doomed_within": 0, "cleared": 1, "not_replayed": ["b"]}
     assert summary(runs, 0.4)["doomed_within"] == 1

@@ -8,7 +8,8 @@ that every replayed plan's z is the logged one (``replayed``). For each plan of 
 and over the next ``--within`` seconds, and the exact cost of the cheapest of the plan, the
 back-up rung's 96 dodges and 3 reverses. A plan is doomed below ``--below``
 (``stall.doomed_below``'s 0.05 by default). The summary counts the collisions that came after
-a plan doomed by the horizon's end, and after one doomed within the second::
+a plan doomed by the horizon's end, after one doomed within the second, and after a plan the
+last resort made (status ``clearing``: it acted, and the robot was struck all the same)::
 
     python tools/doomed_cycles.py OUT
     python tools/doomed_cycles.py OUT --before 1.25 --below 0.05 --json
@@ -91,13 +92,16 @@ def replay(path, before: float, within: float, pairs: tuple = ()) -> dict:
 
 def summary(results: dict, below: float) -> dict:
     """The counts over ``{label: replay}``: collisions, those after a plan doomed by the
-    horizon's end and within the second, and the replays that were not the logged plans."""
+    horizon's end and within the second, those after a plan the last resort made
+    (``clearing``), and the replays that were not the logged plans."""
     def after(key):
         return sorted(label for label, r in results.items()
                       if any(p[key] < below for p in r["plans"]))
     return {"collisions": len(results), "below": below,
             "doomed_by_the_end": len(after("survival_end")),
             "doomed_within": len(after("survival_within")),
+            "cleared": sum(any(p["status"] == "clearing" for p in r["plans"])
+                           for r in results.values()),
             "not_replayed": sorted(label for label, r in results.items() if not r["replayed"])}
 
 
@@ -129,7 +133,8 @@ def main(argv=None) -> int:
     s = report["summary"]
     print(f"{s['doomed_by_the_end']} of {s['collisions']} collisions came after a plan doomed by "
           f"the horizon's end (survival < {args.below:g}), {s['doomed_within']} after one doomed "
-          f"within {args.within:g} s; not replayed: {len(s['not_replayed'])}")
+          f"within {args.within:g} s, {s['cleared']} after a plan the last resort made "
+          f"(clearing); not replayed: {len(s['not_replayed'])}")
     return 0
 
 
