@@ -111,7 +111,7 @@ def test_people_parked_off_the_stage_are_left_out_of_lines_and_limits():
 def test_captions_keep_a_quarter_second():
     """CrowdNav's plans are 0.25 s apart: a caption that rounds to the tenth says 0.8 s for a
     contact at 0.75 s; logged times print to the hundredth, at least one decimal kept."""
-    from dsmpepc_nlp.sim.episode import seconds
+    from dsmpepc_nlp.core.errors import seconds
 
     assert [seconds(t) for t in (0.75, 4.6000000000000005, 9.0, 10.25)] == \
         ["0.75", "4.6", "9.0", "10.25"]

@@ -21,10 +21,10 @@ import numpy as np
 
 from ..core import options
 from ..core.config import RobotState
-from ..core.errors import InputError
+from ..core.errors import InputError, seconds
 from ..core.files import atomic_write_text
 from ..core.jsonio import dumps, json_clean
-from ..sim.episode import Episode, seconds
+from ..sim.episode import Episode
 from ..sim.panels import cost_panels
 from ..solve.stall import StallMonitor
 from ..viz import figures

@@ -86,3 +86,10 @@ def positive_number(name, value, allow_zero=False):
 class MissingExtra(InputError, ImportError):
     """An optional dependency (an extra such as ``orca`` or ``sweep``) that is not installed;
     the message says how to install it. An ImportError too, so ``except ImportError`` works."""
+
+
+def seconds(t: float) -> str:
+    """A logged time (s) as a message or a caption writes it: to the hundredth, with at least
+    one decimal (4.75, not 4.8: CrowdNav plans every 0.25 s; 5.2 and 9.0, not 5.20 and 9.00)."""
+    text = f"{float(t):.2f}".rstrip("0")
+    return text + "0" if text.endswith(".") else text

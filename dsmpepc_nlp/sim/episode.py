@@ -23,13 +23,6 @@ EPISODE_FORMAT = 1
 """Version of the episode file layout."""
 
 
-def seconds(t: float) -> str:
-    """A logged time as a caption writes it: to the hundredth, with at least one decimal
-    (4.75, not 4.8: CrowdNav plans every 0.25 s; 5.2 and 9.0, not 5.20 and 9.00)."""
-    text = f"{float(t):.2f}".rstrip("0")
-    return text + "0" if text.endswith(".") else text
-
-
 # ---------------------------------------------------------------------------------------------
 
 

@@ -16,8 +16,8 @@ import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
+from ..core.errors import seconds
 from ..core.files import atomic_savefig
-from ..sim.episode import seconds
 from ..sim.outcomes import OutcomeConfig
 from .plots import _footprint, _limits, draw_cost_panel, draw_map, on_stage
 

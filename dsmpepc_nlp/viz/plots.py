@@ -20,9 +20,8 @@ import numpy as np
 from matplotlib import animation
 from matplotlib.patches import Circle
 
-from ..core.errors import InputError
+from ..core.errors import InputError, seconds
 from ..core.geometry import footprint_points
-from ..sim.episode import seconds
 from ..sim.metrics import collision_kind
 
 ROBOT_COLOURS = ("tab:blue", "tab:purple", "tab:cyan", "tab:olive", "tab:brown", "tab:pink",
