@@ -133,3 +133,31 @@ def test_on_by_default_off_in_the_paper_preset_and_without_the_rung():
 def test_bad_last_resort_settings_are_refused_by_name(changes, field):
     with pytest.raises(InputError, match=field):
         StallConfig(**changes)
+
+
+def test_a_doomed_plan_that_stays_the_clearest_builds_the_rungs_ways_once(monkeypatch):
+    """Where the plan itself keeps the widest gap, the rung goes on to its cheapest way; the
+    dodges and reverses the last resort built are the ones it weighs, not built again."""
+    config = doomed()
+    cycle = Cycle.prepare(DRIVING, CROSSING, GOAL, config)
+    plan = Planner(doomed(below=0.0, back_up=0.0), SOLVER).plan(DRIVING, CROSSING, GOAL)
+    built = {"dodges": 0, "reverses": 0}
+
+    def counted(name, make):
+        def build(*args):
+            built[name] += 1
+            return make(*args)
+        return build
+
+    monkeypatch.setattr(backup, "dodge_trajectories",
+                        counted("dodges", backup.dodge_trajectories))
+    monkeypatch.setattr(backup, "back_up_trajectories",
+                        counted("reverses", backup.back_up_trajectories))
+    monkeypatch.setattr(backup, "clearance",                 # the plan keeps the widest gap
+                        lambda ways, cycle, within: -np.arange(len(ways), dtype=float))
+    assert backup.clearest(plan, DRIVING, cycle) is None
+    assert built == {"dodges": 1, "reverses": 1}
+    built.update(dodges=0, reverses=0)
+    chosen = backup.consider(plan, DRIVING, cycle, level=0)
+    assert chosen is not None and chosen.status == "dodging", chosen    # the cost's way
+    assert built == {"dodges": 1, "reverses": 1}

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from functools import cached_property
 
 import numpy as np
 
@@ -257,7 +258,8 @@ def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) 
     if stall.back_up <= 0.0:
         return None
     arrival = arrival_time(plan, cycle.goal, goal_tolerance, config)
-    cleared = clearest(plan, state, cycle, arrival)
+    ways = Ways(state, config)
+    cleared = clearest(plan, state, cycle, arrival, ways)
     if cleared is not None:
         return cleared
     threat = threatened(plan, config, arrival)
@@ -273,8 +275,8 @@ def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) 
         if judged is not None:
             return judged
         turn = False                    # the turns were judged, over the longer horizon
-    sets = ([("reverse", back_up_trajectories(state, config))] if reverse else []) + (
-        [("dodge", dodge_trajectories(state, config))] if dodge else []) + (
+    sets = ([("reverse", ways.reverses)] if reverse else []) + (
+        [("dodge", ways.dodges)] if dodge else []) + (
         [("turn", turn_trajectories(plan, state, cycle.goal, config))] if turn else [])
     if not sets:
         return None
@@ -349,16 +351,27 @@ def clearance(trajectories: Trajectory, cycle, within: float) -> np.ndarray:
     return distance[:, :steps + 1].min(axis=(1, 2))
 
 
-def clearest(plan: Plan, state, cycle, arrival: float = math.inf) -> Plan | None:
+class Ways:
+    """This cycle's dodges and reverses from ``state``, each built once, when first read (a
+    doomed plan that stays the clearest meets the same ways again in :func:`consider`)."""
+
+    def __init__(self, state, config: PlannerConfig):
+        self.state, self.config = state, config
+
+    dodges = cached_property(lambda self: dodge_trajectories(self.state, self.config))
+    reverses = cached_property(lambda self: back_up_trajectories(self.state, self.config))
+
+
+def clearest(plan: Plan, state, cycle, arrival: float = math.inf,
+             ways: Ways | None = None) -> Plan | None:
     """The clearest way out of a doomed ``plan``, or None (keep it; ``stall.doomed_below``).
 
     Doomed: the plan's survival over the next ``stall.clearance_within`` seconds (until
     ``arrival``, s, if that is sooner: a docked plan's :func:`arrival_time`, where the task
-    ends, as :func:`consider` reads it) is below
-    ``doomed_below``. Then the plan, the forward dodges and the reverses
-    (:func:`dodge_trajectories`, :func:`back_up_trajectories`) are set by their
-    :func:`clearance` over the next ``clearance_within`` seconds instead of their cost, and
-    the clearest replaces the plan when its gap is wider than the plan's."""
+    ends, as :func:`consider` reads it) is below ``doomed_below``. Then the plan and this
+    cycle's :class:`Ways` (``ways`` if already made) are set by their :func:`clearance` over
+    the next ``clearance_within`` seconds instead of their cost, and the clearest replaces
+    the plan when its gap is wider than the plan's."""
     config = cycle.config
     stall = config.stall
     if not stall.doomed_below > 0.0:
@@ -367,8 +380,9 @@ def clearest(plan: Plan, state, cycle, arrival: float = math.inf) -> Plan | None
     survival = _survival(plan, config, within)
     if survival >= stall.doomed_below:
         return None
-    dodges = dodge_trajectories(state, config)
-    candidates = stacked([plan.trajectory, dodges, back_up_trajectories(state, config)])
+    ways = ways or Ways(state, config)
+    dodges = ways.dodges
+    candidates = stacked([plan.trajectory, dodges, ways.reverses])
     gaps = clearance(candidates, cycle, stall.clearance_within)
     gaps = np.where(np.isnan(gaps), -np.inf, gaps)           # a gap not measured keeps nothing
     best = int(np.argmax(gaps))
