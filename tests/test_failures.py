@@ -183,6 +183,39 @@ def test_the_scene_draws_the_person_touched_where_they_were_at_the_contact():
         plt.close(fig)
 
 
+def test_the_evidence_sits_beside_the_scene_not_over_it(tmp_path):
+    """The evidence box covered the overview map's top left (people, the start); it now has a
+    column of its own, and no text of it overlaps any scene axes."""
+    import matplotlib
+    matplotlib.use("Agg")
+
+    from dsmpepc_nlp.viz import failures as figures
+
+    n = 12
+    episode = make_episode(standing(n), "collision", peds=_appearing(n, n - 4))
+    failure = classify(episode).to_dict()
+    drawn = {}
+    savefig = figures.atomic_savefig
+
+    def keep(fig, path, **kw):
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        drawn["boxes"] = [t.get_window_extent(renderer) for ax in fig.axes for t in ax.texts
+                          if "contact_age" in t.get_text()]
+        drawn["scenes"] = [ax.get_window_extent(renderer) for ax in fig.axes if ax.axison]
+        return savefig(fig, path, **kw)
+
+    figures.atomic_savefig = keep
+    try:
+        figures.failure_figure("appeared-in-reach", [("run", episode, failure, None)],
+                               tmp_path / "f.png", total=1)
+    finally:
+        figures.atomic_savefig = savefig
+    assert len(drawn["boxes"]) == 1
+    assert len(drawn["scenes"]) == 2                          # the scene and its close-up
+    assert not any(drawn["boxes"][0].overlaps(scene) for scene in drawn["scenes"])
+
+
 def test_a_walker_seen_for_longer_than_the_threshold_is_not_appeared_in_reach():
     n = 12
     f = classify(make_episode(standing(n), "collision", peds=_appearing(n, n - 8)))
@@ -412,6 +445,7 @@ def test_the_figure_says_whether_a_collision_had_a_way_out():
 
     assert _text({"contact_age": 0.0, "escape": "none", "escape_from": 4.6}).splitlines() == [
         "contact_age: 0.00", "escape: none"]
+    assert _text({"contact_age": math.inf}) == "contact_age: on stage from the start"
     searched = _text({"escape": "not searched: the pedestrians of this run react to the robot"})
     assert searched == "escape: not searched"          # the reason stays in failures.md
 

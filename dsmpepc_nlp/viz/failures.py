@@ -4,7 +4,8 @@ A view over data computed elsewhere: the episodes, their classification (a
 :meth:`~dsmpepc_nlp.bench.failures.FailureClass.to_dict`) and, when given, the cost panels of
 the stuck cycle (:func:`dsmpepc_nlp.sim.panels.cost_panels`). One row per example: the scene
 (map, the robot's path with the stuck window thick, the footprint at the stuck cycle, people
-with their paths, the narrowest gap, the contact), then the four cost panels.
+with their paths, the narrowest gap, the contact) with its evidence beside it, then the four
+cost panels.
 """
 
 from __future__ import annotations
@@ -36,6 +37,8 @@ def _text(evidence: dict) -> str:
             value = evidence[key]
             if key == "escape":     # "not searched: <why>" is a sentence: the box keeps its head
                 value = str(value).split(":")[0]
+            if key == "contact_age" and value == float("inf"):
+                value = "on stage from the start"
             lines.append(f"{key}: {value:.2f}" if isinstance(value, float) else f"{key}: {value}")
     if "goal_free_at" in evidence:  # a replay's draw: None, no planner could have arrived
         free = evidence["goal_free_at"]
@@ -44,7 +47,7 @@ def _text(evidence: dict) -> str:
     return "\n".join(lines)
 
 
-def draw_scene(ax, episode, failure: dict, label: str, evidence: bool = True) -> None:
+def draw_scene(ax, episode, failure: dict, label: str) -> None:
     """One failed run: map, path (stuck window thick), people, footprint at the stuck cycle."""
     draw_map(ax, episode.grid)
     robot, k = failure["robot"], failure["cycle"]
@@ -86,10 +89,14 @@ def draw_scene(ax, episode, failure: dict, label: str, evidence: bool = True) ->
     ended = seconds(episode.outcome_times[robot])
     ax.set_title(f"{label}\n{failure['outcome']} at {ended} s, "
                  f"stuck cycle t = {seconds(failure['time'])} s", fontsize=9)
-    if not evidence:
-        return
-    ax.text(0.02, 0.98, _text(failure["evidence"]), transform=ax.transAxes, fontsize=6.5,
-            va="top", ha="left", zorder=7, bbox=dict(boxstyle="round", fc="white", alpha=0.85))
+
+
+def draw_evidence(ax, failure: dict) -> None:
+    """The run's evidence as text in an axes of its own, beside the scene and never over it."""
+    ax.axis("off")
+    ax.set_title("evidence", fontsize=9, loc="left")
+    ax.text(0.0, 1.0, _text(failure["evidence"]), transform=ax.transAxes, fontsize=7.5,
+            va="top", ha="left", family="monospace")
 
 
 LEGEND = (Line2D([], [], color="tab:blue", lw=1.2, label="robot path"),
@@ -122,18 +129,20 @@ def failure_figure(name: str, examples, path, *, total: int | None = None) -> Pa
     """Up to a few examples of class ``name`` into ``path``; ``examples`` is a list of
     ``(label, episode, failure dict, CostPanels or None)``; ``total``: runs in the class.
 
-    One row per example: the whole scene, a close-up of the stuck cycle and, with panels, the
-    four cost panels of the stuck cycle (close-ups too)."""
+    One row per example: the run's evidence, the whole scene, a close-up of the stuck cycle
+    and, with panels, the four cost panels of the stuck cycle (close-ups too)."""
     n = len(examples)
     cols = 6 if any(e[3] is not None for e in examples) else 2
-    fig, axes = plt.subplots(n, cols, figsize=(3.6 * cols, 4.6 * n + 0.9), squeeze=False,
-                             layout="constrained")
+    fig, axes = plt.subplots(n, cols + 1, figsize=(3.6 * cols + 2.4, 4.6 * n + 0.9),
+                             squeeze=False, layout="constrained",
+                             gridspec_kw={"width_ratios": [0.55] + [1.0] * cols})
     for row, (label, episode, failure, panels) in zip(axes, examples):
-        draw_scene(row[0], episode, failure, label)
-        draw_scene(row[1], episode, failure, "close-up", evidence=False)
+        draw_evidence(row[0], failure)
+        draw_scene(row[1], episode, failure, label)
+        draw_scene(row[2], episode, failure, "close-up")
         centre = episode.states[failure["robot"], failure["cycle"], :2]
-        _zoom(row[1], centre)
-        for j, ax in enumerate(row[2:]):
+        _zoom(row[2], centre)
+        for j, ax in enumerate(row[3:]):
             if panels is None:
                 ax.axis("off")
                 continue
