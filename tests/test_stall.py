@@ -98,6 +98,31 @@ def test_progress_puts_the_ladder_back_to_zero_and_arrival_is_no_stall():
     assert {at_goal.update(still, (0.05, 0.0)) for _ in range(6)} == {0}
 
 
+def _circling(monitor, goal, plans):
+    """Levels of a robot driving round ``goal`` on a 2 m circle at 1 m/s: it moves 0.4 m
+    a 0.4 s window and comes no nearer."""
+    return [monitor.update(RobotState(goal[0] + 2.0 * math.cos(0.1 * k),
+                                      goal[1] + 2.0 * math.sin(0.1 * k), 0.0), goal)
+            for k in range(plans)]
+
+
+def test_a_robot_that_moves_but_comes_no_nearer_climbs_with_min_progress():
+    """Univ's wandering robots circled people at their goals at ladder level 0: they moved
+    more than min_displacement every window. With min_progress they climb."""
+    moving = PlannerConfig(stall=StallConfig(window=0.4, min_progress=0.2))
+    assert _circling(StallMonitor(moving), FAR_GOAL, 5) == [0, 0, 1, 1, 2]
+    assert "or came < 0.2 m nearer the goal in 0.4 s" in StallMonitor(moving).describe(1)
+    motion_only = PlannerConfig(stall=StallConfig(window=0.4, min_progress=0.0))
+    assert set(_circling(StallMonitor(motion_only), FAR_GOAL, 5)) == {0}
+    assert "nearer" not in StallMonitor(motion_only).describe(1)
+    # Driving at the goal is progress; so is keeping up with a goal that moves ahead.
+    straight = StallMonitor(moving)
+    assert {straight.update(RobotState(0.2 * k, 0.0, 0.0), FAR_GOAL) for k in range(6)} == {0}
+    follower = StallMonitor(moving)
+    assert {follower.update(RobotState(0.2 * k, 0.0, 0.0), (0.2 * k + 1.0, 0.0))
+            for k in range(6)} == {0}
+
+
 def test_a_level_raises_only_the_progress_weight_and_its_configuration_is_kept():
     config = PlannerConfig()
     monitor = StallMonitor(config)
@@ -110,6 +135,7 @@ def test_a_level_raises_only_the_progress_weight_and_its_configuration_is_kept()
 @pytest.mark.parametrize("changes, field", [
     (dict(levels=-1), "levels"), (dict(levels=1.5), "levels"), (dict(gain=0.5), "gain"),
     (dict(window=0.0), "window"), (dict(min_displacement=float("nan")), "min_displacement"),
+    (dict(min_progress=-0.1), "min_progress"),
 ])
 def test_bad_stall_settings_are_refused_by_name(changes, field):
     with pytest.raises(InputError, match=f"StallConfig.{field}|{field}"):

@@ -104,8 +104,9 @@ class StallConfig:
     """The planner's stall monitor and its escalation ladder (our extension, docs/method.md
     section 7.5; off in :meth:`PlannerConfig.paper`).
 
-    A robot that moved less than ``min_displacement`` over its last ``window`` of plans while
-    farther than ``docking.arrival_radius`` from its goal is stalled; each such window raises
+    A robot that moved less than ``min_displacement`` (or came less than ``min_progress``
+    nearer its goal) over its last ``window`` of plans while farther than
+    ``docking.arrival_radius`` from its goal is stalled; each such window raises
     the ladder one level, up to ``levels``, and level ``k`` plans with the progress weight
     times ``gain ** k``: progress is worth more of the risk the cost weighs it against. A
     window with progress puts the ladder back to 0. The simulator's deadlock rule does not
@@ -116,9 +117,17 @@ class StallConfig:
     """Stall window, s, counted in plans of ``horizon.dt`` each (our choice: a fifth of the
     simulator's 10 s deadlock window, so the ladder's levels come well before it)."""
     min_displacement: float = 0.2
-    """Least net displacement over the window, m, of a robot that is not stalled: the
-    simulator's deadlock rate (1 m in 10 s), so a robot slower than what that rule calls
-    stuck escalates long before the rule fires (our choice)."""
+    """Least net displacement over the window, m, of a robot that is not stalled: 1 m in
+    10 s, ten times the simulator's deadlock rule (0.1 m of progress in 10 s), so a robot
+    far slower than a walk escalates long before the rule fires (our choice)."""
+    min_progress: float = 0.0
+    """Least progress toward the goal over the window, m, of a robot that is not stalled; 0
+    turns the test off. Progress is the fall of the straight-line distance to the goal as it
+    is now, from the window's first position to its last (a goal that moves with the robot,
+    a follower's, is progress). The simulator's deadlock rule measures progress, not motion:
+    a robot circling people at its goal, or pushed back by a crowd walking at it, moves more
+    than ``min_displacement`` in every window, so without this test it never climbs the
+    ladder before the rule fires. 0.2 m, ``min_displacement``'s rate (ours)."""
     levels: int = 3
     """The ladder's highest level; 0 turns the monitor off."""
     gain: float = 2.0
@@ -243,7 +252,7 @@ class StallConfig:
         check_booleans(self, ("dodge", "threat_until_arrival", "judge_sooner"))
         validate_fields(self, {"window": dict(low=0.0, low_open=True),
                                 "min_displacement": dict(low=0.0, low_open=True),
-                                "gain": dict(low=1.0), "back_up": dict(low=0.0),
+                                "min_progress": dict(low=0.0), "gain": dict(low=1.0), "back_up": dict(low=0.0),
                                 "back_up_time": dict(low=0.0, low_open=True),
                                 "back_up_threat": dict(low=0.0, high=1.0),
                                 "dodge_within": dict(low=0.0, low_open=True),

@@ -41,9 +41,10 @@ class StallMonitor:
     def update(self, state, goal) -> int:
         """Record this plan's position and return the level to plan at.
 
-        When the window is full, a net displacement under ``min_displacement`` with the goal
-        farther than the arrival radius raises the level (at most the ladder's length) and
-        starts a new window; a displacement of at least that sets the level back to 0.
+        When the window is full, a net displacement under ``min_displacement``, or progress
+        toward ``goal`` under ``min_progress`` (:func:`progress`), with the goal farther than
+        the arrival radius raises the level (at most the ladder's length) and starts a new
+        window; a window with both sets the level back to 0.
         """
         stall = self.config.stall
         if stall.levels == 0:
@@ -52,9 +53,11 @@ class StallMonitor:
         if len(self._positions) <= self.plans:
             return self.level
         (x0, y0), (x1, y1) = self._positions[0], self._positions[-1]
-        moved = math.hypot(x1 - x0, y1 - y0)
+        moved = math.hypot(x1 - x0, y1 - y0) >= stall.min_displacement
+        came = stall.min_progress <= 0.0 or \
+            progress((x0, y0), (x1, y1), goal) >= stall.min_progress
         arrived = math.hypot(goal[0] - x1, goal[1] - y1) <= self.config.docking.arrival_radius
-        if moved >= stall.min_displacement or arrived:
+        if (moved and came) or arrived:
             self.level = 0
         else:
             self.level = min(self.level + 1, stall.levels)
@@ -86,6 +89,16 @@ class StallMonitor:
         """The level in words, for a plan's message ('' at level 0)."""
         if level == 0:
             return ""
-        gain = self.config.stall.progress_gain(level)
-        return (f"stalled (moved < {self.config.stall.min_displacement:g} m in "
-                f"{self.config.stall.window:g} s): ladder level {level}, progress weight x{gain:g}")
+        stall = self.config.stall
+        gain = stall.progress_gain(level)
+        nearer = (f" or came < {stall.min_progress:g} m nearer the goal"
+                  if stall.min_progress > 0.0 else "")
+        return (f"stalled (moved < {stall.min_displacement:g} m{nearer} in {stall.window:g} s): "
+                f"ladder level {level}, progress weight x{gain:g}")
+
+
+def progress(start, end, goal) -> float:
+    """m: how much nearer ``goal`` (where it is now) the robot came from ``start`` to ``end``,
+    the fall of the straight-line distance; negative when it went away."""
+    return (math.hypot(goal[0] - start[0], goal[1] - start[1])
+            - math.hypot(goal[0] - end[0], goal[1] - end[1]))
