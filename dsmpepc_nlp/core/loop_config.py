@@ -252,7 +252,8 @@ class StallConfig:
         check_booleans(self, ("dodge", "threat_until_arrival", "judge_sooner"))
         validate_fields(self, {"window": dict(low=0.0, low_open=True),
                                 "min_displacement": dict(low=0.0, low_open=True),
-                                "min_progress": dict(low=0.0), "gain": dict(low=1.0), "back_up": dict(low=0.0),
+                                "min_progress": dict(low=0.0),
+                                "gain": dict(low=1.0), "back_up": dict(low=0.0),
                                 "back_up_time": dict(low=0.0, low_open=True),
                                 "back_up_threat": dict(low=0.0, high=1.0),
                                 "dodge_within": dict(low=0.0, low_open=True),
