@@ -274,7 +274,8 @@ def test_a_person_beside_the_goal_keeps_the_robot_off_it_only_without_the_region
     """Closed loop: a person stands 0.7-0.8 m beside the goal, which is free (the bodies
     would be 0.1-0.2 m apart at it). Docking only at the goal point with its survivability
     read at 0.1 m from it, the robot never arrives; docking within the task's 0.3 m
-    tolerance, it does."""
+    tolerance, it does. The docking alone: the ladder climbs only for a robot that stands
+    (``stall.min_progress`` 0); the product's ladder also frees the robot that hovers."""
     from dsmpepc_nlp.sim.simulate import simulate
     from dsmpepc_nlp.sim.types import Agent, FixedGoal, Scenario
 
@@ -282,17 +283,22 @@ def test_a_person_beside_the_goal_keeps_the_robot_off_it_only_without_the_region
                                          FixedGoal((3.0, 0.0), 0.3)),),
                         pedestrians=(person_near_the_goal(y),), duration=15.0)
     outcomes = {}
-    for points, at_tolerance in ((0, False), (8, False), (0, True), (8, True)):
+    for points, at_tolerance, progress in ((0, False, 0.0), (8, False, 0.0), (0, True, 0.0),
+                                           (8, True, 0.0), (0, True, StallConfig.min_progress)):
         config = PlannerConfig(docking=DockingConfig(region_points=points,
-                                                     arrival_at_tolerance=at_tolerance))
+                                                     arrival_at_tolerance=at_tolerance),
+                               stall=StallConfig(min_progress=progress))
         episode = simulate(scenario, config, SolverConfig(method="sampling", n_samples=256),
                            np.random.default_rng(0))
-        outcomes[points, at_tolerance] = episode.outcomes[0]
+        outcomes[points, at_tolerance, progress] = episode.outcomes[0]
+    outcomes = {key[:2]: outcome for key, outcome in outcomes.items() if key[2] == 0.0} | {
+        "product": outcomes[0, True, StallConfig.min_progress]}
     # Read at 0.1 m from its point, only the region frees the robot; read where the task ends
     # (the product's default), the goal point's own way passes beside a person 0.8 m off.
     assert outcomes[0, False] == "timeout" and outcomes[8, False] == "success"
     assert outcomes[8, True] == "success"
     assert outcomes[0, True] == ("success" if y == 0.8 else "timeout")
+    assert StallConfig.min_progress > 0.0 and outcomes["product"] == "success"
 
 
 @pytest.mark.parametrize("tolerance", [-0.1, math.nan, math.inf, "near", True])
