@@ -222,14 +222,21 @@ def config_to_dict(config: PlannerConfig) -> dict:
     return json_clean(dataclasses.asdict(config), nonfinite=str)
 
 
+BEFORE_THEY_WERE = {"stall": {"doomed_below": 0.0, "min_progress": 0.0}}
+"""Fields a saved configuration may lack, with the value that plans as the package did before
+they existed (each now on by default): an episode saved then replays its own plans."""
+
+
 def config_from_dict(data: dict) -> PlannerConfig:
-    """Inverse of :func:`config_to_dict`."""
+    """Inverse of :func:`config_to_dict`; a field of :data:`BEFORE_THEY_WERE` it lacks is set
+    to its value there, any other to today's default."""
     parts = {f.name: f.type for f in dataclasses.fields(PlannerConfig)}
     kinds = {name: type(getattr(PlannerConfig(), name)) for name in parts}
     values = {}
     for name, value in data.items():
         if isinstance(value, dict):
             value = {k: float(v) if isinstance(v, str) else v for k, v in value.items()}
+            value = BEFORE_THEY_WERE.get(name, {}) | value
             values[name] = kinds[name](**value)
         else:
             values[name] = value
