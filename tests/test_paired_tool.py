@@ -62,3 +62,18 @@ def test_barn_tables_pair_by_world_and_only_shared_cases_count(tmp_path, tool):
     b = paired.load(write(tmp_path / "b.csv", ["success", "deadlock"], key="world"), None)
     result = paired.compare(a, b)
     assert result["cases"] == 2 and result["only_a"] == ["1"] and result["only_b"] == []
+
+
+def test_cases_keeps_one_split(tmp_path, capsys, tool):
+    """BARN's held-out split is its odd worlds: ``--cases 1-5:2`` pairs worlds 1, 3 and 5
+    only; a range the package's index syntax refuses is a usage error."""
+    a = write(tmp_path / "a.csv", ["timeout", "timeout", "success", "timeout", "success",
+                                   "timeout"], key="world")
+    b = write(tmp_path / "b.csv", ["success"] * 6, key="world")
+    assert tool("paired").main([a, b, "--cases", "1-5:2", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["cases"] == 3 and result["only_b"] == ["1", "3", "5"]
+    assert tool("paired").main([a, b, "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["cases"] == 6
+    with pytest.raises(SystemExit):
+        tool("paired").main([a, b, "--cases", "5-1"])

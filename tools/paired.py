@@ -10,6 +10,10 @@ each table's mean time and how many of them B ends sooner and later than A::
 
     python tools/paired.py BEFORE/crowdnav.csv AFTER/crowdnav.csv
     python tools/paired.py BEFORE/barn.csv AFTER/barn.csv --json
+    python tools/paired.py PAPER/barn.csv PRODUCT/barn.csv --cases 1-299:2   # the odd worlds
+
+``--cases`` keeps only those cases (the package's index syntax: ``0-5,10``, ``1-299:2``): one
+split of tables that hold both.
 
 This is how docs/results.md counts "only before / only with" and its p-values.
 """
@@ -22,6 +26,8 @@ import json
 import math
 import sys
 
+from dsmpepc_nlp.bench.results import parse_indices
+
 
 def sign_test(only_a: int, only_b: int) -> float:
     """Two-sided exact sign test of ``only_a`` against ``only_b`` discordant cases."""
@@ -32,15 +38,18 @@ def sign_test(only_a: int, only_b: int) -> float:
     return min(1.0, 2.0 * tail / 2 ** n)
 
 
-def load(path: str, variant: str | None) -> dict:
-    """``{case: row}`` of one table, for ``variant`` (the first row's when None)."""
+def load(path: str, variant: str | None, cases=None) -> dict:
+    """``{case: row}`` of one table, for ``variant`` (the first row's when None); only the
+    ``cases`` given (ints), when given."""
     with open(path, newline="") as handle:
         rows = list(csv.DictReader(handle))
     if not rows:
         raise SystemExit(f"{path}: no rows")
     key = "world" if "world" in rows[0] else "episode"
     variant = variant or rows[0].get("variant")
-    return {row[key]: row for row in rows if row.get("variant") == variant}
+    kept = None if cases is None else {str(c) for c in cases}
+    return {row[key]: row for row in rows if row.get("variant") == variant
+            and (kept is None or row[key] in kept)}
 
 
 def _time(row: dict) -> float | None:
@@ -92,9 +101,14 @@ def main(argv=None) -> int:
     parser.add_argument("a", help="table A (.csv of a benchmark's --out)")
     parser.add_argument("b", help="table B, the same benchmark")
     parser.add_argument("--variant", help="the variant to compare (default: each table's first)")
+    parser.add_argument("--cases", help="only these cases, e.g. 1-299:2 (BARN's odd worlds)")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     args = parser.parse_args(argv)
-    result = compare(load(args.a, args.variant), load(args.b, args.variant))
+    try:
+        cases = None if args.cases is None else parse_indices(args.cases, "--cases")
+    except ValueError as error:
+        parser.error(str(error))
+    result = compare(load(args.a, args.variant, cases), load(args.b, args.variant, cases))
     if args.json:
         json.dump(result, sys.stdout)
         print()
