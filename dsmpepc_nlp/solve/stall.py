@@ -42,7 +42,8 @@ class StallMonitor:
         """Record this plan's position and return the level to plan at.
 
         When the window is full, a net displacement under ``min_displacement``, or progress
-        toward ``goal`` under ``min_progress`` (:func:`progress`), with the goal farther than
+        toward ``goal`` (where it is now: the fall of the straight-line distance to it from the
+        window's first position to its last) under ``min_progress``, with the goal farther than
         the arrival radius raises the level (at most the ladder's length) and starts a new
         window; a window with both sets the level back to 0.
         """
@@ -53,11 +54,10 @@ class StallMonitor:
         if len(self._positions) <= self.plans:
             return self.level
         (x0, y0), (x1, y1) = self._positions[0], self._positions[-1]
+        before, now = math.hypot(goal[0] - x0, goal[1] - y0), math.hypot(goal[0] - x1, goal[1] - y1)
         moved = math.hypot(x1 - x0, y1 - y0) >= stall.min_displacement
-        came = stall.min_progress <= 0.0 or \
-            progress((x0, y0), (x1, y1), goal) >= stall.min_progress
-        arrived = math.hypot(goal[0] - x1, goal[1] - y1) <= self.config.docking.arrival_radius
-        if (moved and came) or arrived:
+        came = stall.min_progress <= 0.0 or before - now >= stall.min_progress
+        if (moved and came) or now <= self.config.docking.arrival_radius:
             self.level = 0
         else:
             self.level = min(self.level + 1, stall.levels)
@@ -96,9 +96,3 @@ class StallMonitor:
         return (f"stalled (moved < {stall.min_displacement:g} m{nearer} in {stall.window:g} s): "
                 f"ladder level {level}, progress weight x{gain:g}")
 
-
-def progress(start, end, goal) -> float:
-    """m: how much nearer ``goal`` (where it is now) the robot came from ``start`` to ``end``,
-    the fall of the straight-line distance; negative when it went away."""
-    return (math.hypot(goal[0] - start[0], goal[1] - start[1])
-            - math.hypot(goal[0] - end[0], goal[1] - end[1]))
