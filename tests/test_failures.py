@@ -183,7 +183,7 @@ def test_the_scene_draws_the_person_touched_where_they_were_at_the_contact():
         plt.close(fig)
 
 
-def test_the_evidence_sits_beside_the_scene_not_over_it(tmp_path):
+def test_the_evidence_sits_beside_the_scene_not_over_it(tmp_path, monkeypatch):
     """The evidence box covered the overview map's top left (people, the start); it now has a
     column of its own, and no text of it overlaps any scene axes."""
     import matplotlib
@@ -205,12 +205,9 @@ def test_the_evidence_sits_beside_the_scene_not_over_it(tmp_path):
         drawn["scenes"] = [ax.get_window_extent(renderer) for ax in fig.axes if ax.axison]
         return savefig(fig, path, **kw)
 
-    figures.atomic_savefig = keep
-    try:
-        figures.failure_figure("appeared-in-reach", [("run", episode, failure, None)],
-                               tmp_path / "f.png", total=1)
-    finally:
-        figures.atomic_savefig = savefig
+    monkeypatch.setattr(figures, "atomic_savefig", keep)
+    figures.failure_figure("appeared-in-reach", [("run", episode, failure, None)],
+                           tmp_path / "f.png", total=1)
     assert len(drawn["boxes"]) == 1
     assert len(drawn["scenes"]) == 2                          # the scene and its close-up
     assert not any(drawn["boxes"][0].overlaps(scene) for scene in drawn["scenes"])
