@@ -476,3 +476,41 @@ def test_the_report_gives_each_failures_ladder_level(tmp_path):
     levels = {f["class"]: f["evidence"]["stall_level"] for f in report["failures"]}
     assert levels == {"stalled-in-gap": 3, "struck-stopped": 0}
     assert "stall_level: 3" in _text({"stall_level": 3})
+
+
+def test_cases_keeps_only_the_runs_of_those_episodes(tmp_path, capsys, monkeypatch):
+    """``--cases`` classifies only the rows whose episode is given, says so in the report, the
+    page and the figures' titles, and refuses a selection that keeps nothing or a table with
+    no episode or world to select by."""
+    on_goal = make_episode(standing(STALL), "deadlock", peds=np.tile([[[1.1, 0.0]]],
+                           (STALL, 1, 1)), goal=(1.0, 0.0))
+    table = ResultTable(tmp_path, "crowd", ("episode",), {"benchmark": "crowd"})
+    for episode in (0, 1, 2, 5):
+        table.add({"episode": episode, "outcome": "deadlock",
+                   "episode_file": keep_failure(on_goal, tmp_path, f"e{episode}")})
+    report = classify_folder(tmp_path, cases={1, 2, 3})
+    assert report["runs"] == 2 and report["cases"] == "1-3"
+    assert [f["label"] for f in report["failures"]] == ["crowd episode=1", "crowd episode=2"]
+    assert classify_folder(tmp_path)["runs"] == 4
+    from dsmpepc_nlp.viz import failures as figures
+
+    titles, savefig = [], figures.atomic_savefig
+
+    def keep(fig, path, **kw):
+        titles.append(fig.get_suptitle())
+        return savefig(fig, path, **kw)
+
+    monkeypatch.setattr(figures, "atomic_savefig", keep)
+    assert main(["failures", str(tmp_path), "--cases", "5", "--figures", "1",
+                 "--no-panels"]) == 0
+    assert titles and all(t.endswith("(1 of 1 runs shown, of cases 5)") for t in titles)
+    assert "1 of 1 runs (cases 5) did not succeed" in capsys.readouterr().out
+    assert "(cases 5 only)" in (tmp_path / "failures.md").read_text()
+    assert main(["failures", str(tmp_path), "--cases", "7-9"]) == 2
+    assert "no run of" in capsys.readouterr().err
+    assert main(["failures", str(tmp_path), "--cases", "9-7"]) == 2
+    assert "--cases = '9-7'" in capsys.readouterr().err
+    scenes = ResultTable(tmp_path / "scen", "scenarios", ("scenario",), {})
+    scenes.add({"scenario": "hall", "outcome": "deadlock"})
+    with pytest.raises(InputError, match="numbers its runs by none of world, episode"):
+        classify_folder(tmp_path / "scen", cases={0})

@@ -30,7 +30,7 @@ from ..solve.stall import StallMonitor
 from ..viz import figures
 from .escape import escapes
 from .failures import CLASSES, classify
-from .results import TABLE_FORMAT
+from .results import TABLE_FORMAT, parse_indices
 
 REPORT = "failures"
 """Stem of the report files the command writes into the folder."""
@@ -77,14 +77,48 @@ def read_tables(out_dir) -> list:
     return tables
 
 
-def classify_folder(out_dir, escape: bool = False) -> dict:
+CASE_FIELDS = ("world", "episode")
+"""The row field that numbers a benchmark's cases (BARN's worlds, the crowds' episodes), which
+``--cases`` selects by."""
+
+
+def selected(stem: str, rows: list, cases) -> list:
+    """The ``rows`` of table ``stem`` whose case (:data:`CASE_FIELDS`) is in ``cases`` (all of
+    them when None); InputError when a row has no such field."""
+    if cases is None:
+        return rows
+    kept = []
+    for row in rows:
+        field = next((f for f in CASE_FIELDS if row.get(f) is not None), None)
+        if field is None:
+            raise InputError(f"failures --cases: table {stem!r} numbers its runs by none of "
+                             f"{', '.join(CASE_FIELDS)} (its row: {_short(row)[:80]}); --cases "
+                             "selects BARN worlds and crowd episodes only")
+        if int(row[field]) in cases:
+            kept.append(row)
+    return kept
+
+
+def _ranges(cases) -> str:
+    """Sorted ints as ``--cases`` writes them: ``0-5,10``."""
+    spans, values = [], sorted(cases)
+    for value in values:
+        if spans and value == spans[-1][1] + 1:
+            spans[-1][1] = value
+        else:
+            spans.append([value, value])
+    return ",".join(str(a) if a == b else f"{a}-{b}" for a, b in spans)
+
+
+def classify_folder(out_dir, escape: bool = False, cases=None) -> dict:
     """The report of ``out_dir``: runs, counts per class, each failure with its evidence; with
     ``escape``, every collision also searched for a way out (:mod:`.escape`), counted in
-    ``escapes``."""
+    ``escapes``; with ``cases`` (ints), only the runs of those worlds or episodes
+    (:func:`selected`), named in the report's ``cases``."""
     folder = Path(out_dir)
     failures, unclassified, n_rows, n_failed = [], [], 0, 0
     for stem, keys, rows in read_tables(folder):
-        for row in rows:
+        for row in selected(stem, rows, cases):
             n_rows += 1
             if not unsuccessful(row):
                 continue
@@ -113,6 +147,11 @@ def classify_folder(out_dir, escape: bool = False) -> dict:
                                      **failure})
     counts = Counter(f["class"] for f in failures)
     report = {"out": str(folder), "runs": n_rows, "unsuccessful_runs": n_failed}
+    if cases is not None:
+        if not n_rows:
+            raise InputError(f"failures --cases: no run of {str(folder)!r} is among the cases "
+                             "given")
+        report["cases"] = _ranges(cases)
     if escape:
         found = Counter(str(f["evidence"]["escape"]).split(":")[0] for f in failures
                         if "escape" in f["evidence"])
@@ -202,13 +241,15 @@ def draw_figures(report: dict, out_dir, n_examples: int, panels: bool = True) ->
             examples.append((failure["label"], episode, failure, shown))
         if examples:
             paths.append(figures("failures").failure_figure(
-                name, examples, folder / f"{REPORT}-{name}.png", total=total))
+                name, examples, folder / f"{REPORT}-{name}.png", total=total,
+                cases=report.get("cases")))
     return [str(p) for p in paths]
 
 
 def markdown(report: dict) -> str:
     """The report as a short markdown page: counts, then every failure with its evidence."""
-    lines = [f"# Failures in `{report['out']}`", "",
+    only = f" (cases {report['cases']} only)" if "cases" in report else ""
+    lines = [f"# Failures in `{report['out']}`{only}", "",
              f"{report['unsuccessful_runs']} of {report['runs']} runs did not succeed.", "",
              "| class | runs |", "|---|---|"]
     lines += [f"| {name} | {n} |" for name, n in report["counts"].items()]
@@ -257,11 +298,15 @@ def add_arguments(p) -> None:
                    help="also search every collision for a way out within the robot's limits "
                    "against the logged people (valid where they do not react to the robot: "
                    "CrowdNav invisible, ETH/UCY, the scenarios; seconds per collision)")
+    p.add_argument("--cases", metavar="RANGE", default=None,
+                   help="only the runs of these BARN worlds or crowd episodes, e.g. 50-199 or "
+                   "1-299:2 (the report and its figures then say so)")
     p.add_argument("--json", action="store_true", help="print the report as one JSON object")
 
 
 def run(args) -> int:
-    report = classify_folder(args.out_dir, escape=args.escape)
+    cases = None if args.cases is None else set(parse_indices(args.cases, "--cases"))
+    report = classify_folder(args.out_dir, escape=args.escape, cases=cases)
     report["figures"] = draw_figures(report, args.out_dir, args.figures,
                                      panels=not args.no_panels) if args.figures else []
     folder = Path(args.out_dir)
@@ -270,7 +315,8 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(json_clean(report), allow_nan=False))
         return 0
-    print(f"{report['unsuccessful_runs']} of {report['runs']} runs did not succeed")
+    only = f" (cases {report['cases']})" if "cases" in report else ""
+    print(f"{report['unsuccessful_runs']} of {report['runs']} runs{only} did not succeed")
     width = max((len(n) for n in report["counts"]), default=12)
     for name, n in report["counts"].items():
         print(f"  {name:{width}s} {n}")

@@ -125,9 +125,11 @@ def _zoom(ax, centre) -> None:
     ax.set_ylabel("y [m]")
 
 
-def failure_figure(name: str, examples, path, *, total: int | None = None) -> Path:
+def failure_figure(name: str, examples, path, *, total: int | None = None,
+                   cases: str | None = None) -> Path:
     """Up to a few examples of class ``name`` into ``path``; ``examples`` is a list of
-    ``(label, episode, failure dict, CostPanels or None)``; ``total``: runs in the class.
+    ``(label, episode, failure dict, CostPanels or None)``; ``total``: runs in the class;
+    ``cases``: the worlds or episodes the report kept (``failures --cases``), in the title.
 
     One row per example: the run's evidence, the whole scene, a close-up of the stuck cycle
     and, with panels, the four cost panels of the stuck cycle (close-ups too)."""
@@ -152,7 +154,8 @@ def failure_figure(name: str, examples, path, *, total: int | None = None) -> Pa
             _zoom(ax, centre)
     fig.legend(handles=list(LEGEND), fontsize=8, loc="outside lower center", ncols=5)
     shown = f"{n} of {total}" if total is not None else f"{n}"
-    fig.suptitle(f"Failure class: {name} ({shown} runs shown)", fontsize=12)
+    among = f", of cases {cases}" if cases else ""
+    fig.suptitle(f"Failure class: {name} ({shown} runs shown{among})", fontsize=12)
     path = Path(path)
     atomic_savefig(fig, path, dpi=90)
     plt.close(fig)
