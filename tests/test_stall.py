@@ -282,17 +282,17 @@ def test_a_person_beside_the_goal_keeps_the_robot_off_it_only_without_the_region
     scenario = Scenario("beside", (Agent("a", RobotState(0.0, 0.0, 0.0),
                                          FixedGoal((3.0, 0.0), 0.3)),),
                         pedestrians=(person_near_the_goal(y),), duration=15.0)
+    runs = {(points, at_tolerance): (points, at_tolerance, 0.0)
+            for points in (0, 8) for at_tolerance in (False, True)}
+    runs["product"] = (0, True, StallConfig.min_progress)
     outcomes = {}
-    for points, at_tolerance, progress in ((0, False, 0.0), (8, False, 0.0), (0, True, 0.0),
-                                           (8, True, 0.0), (0, True, StallConfig.min_progress)):
+    for key, (points, at_tolerance, progress) in runs.items():
         config = PlannerConfig(docking=DockingConfig(region_points=points,
                                                      arrival_at_tolerance=at_tolerance),
                                stall=StallConfig(min_progress=progress))
         episode = simulate(scenario, config, SolverConfig(method="sampling", n_samples=256),
                            np.random.default_rng(0))
-        outcomes[points, at_tolerance, progress] = episode.outcomes[0]
-    outcomes = {key[:2]: outcome for key, outcome in outcomes.items() if key[2] == 0.0} | {
-        "product": outcomes[0, True, StallConfig.min_progress]}
+        outcomes[key] = episode.outcomes[0]
     # Read at 0.1 m from its point, only the region frees the robot; read where the task ends
     # (the product's default), the goal point's own way passes beside a person 0.8 m off.
     assert outcomes[0, False] == "timeout" and outcomes[8, False] == "success"

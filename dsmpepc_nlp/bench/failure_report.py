@@ -92,8 +92,8 @@ def selected(stem: str, rows: list, cases) -> list:
         field = next((f for f in CASE_FIELDS if row.get(f) is not None), None)
         if field is None:
             raise InputError(f"failures --cases: table {stem!r} numbers its runs by none of "
-                             f"{', '.join(CASE_FIELDS)} (its row: {_short(row)[:80]}); --cases "
-                             "selects BARN worlds and crowd episodes only")
+                             f"{', '.join(CASE_FIELDS)} (its fields: {', '.join(row)}); "
+                             "--cases selects BARN worlds and crowd episodes only")
         if int(row[field]) in cases:
             kept.append(row)
     return kept

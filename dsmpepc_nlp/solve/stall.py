@@ -95,4 +95,3 @@ class StallMonitor:
                   if stall.min_progress > 0.0 else "")
         return (f"stalled (moved < {stall.min_displacement:g} m{nearer} in {stall.window:g} s): "
                 f"ladder level {level}, progress weight x{gain:g}")
-
