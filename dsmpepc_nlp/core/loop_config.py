@@ -303,9 +303,21 @@ class PredictionConfig:
     """Farthest a person may be from where last plan's person was predicted and still be
     that person, m (a walker at 1.3 m/s who turns or stops within a 0.25 s plan is well
     inside it; two people are at least 0.6 m apart, centre to centre)."""
+    standing_map: float = 1.0
+    """Our extension, s (0: off, as in :meth:`PlannerConfig.paper`): a person who has stood
+    (slower than ``standing``) for this long, counted in plans of ``horizon.dt`` and matched
+    across plans within ``gate``, is drawn into a grid the plan sees as its map
+    (:mod:`~dsmpepc_nlp.solve.standing`; worlds with a map pass unchanged). Without a map the
+    navigation function is the straight line, and a person standing on it, or two with a gap
+    narrower than the robot between them, made every step toward them progress: the robot
+    crept at a gap it could not pass until the deadlock rule ended the run. On the grid the
+    navigation function routes round them (docs/method.md section 3.1). One second, so that a
+    walker who pauses, or a crowd at rest the moment a run starts, is not drawn (drawn at
+    once, the robot lost runs to people who were about to walk; docs/results.md)."""
 
     def __post_init__(self):
         validate_fields(self, {"speeding_up": dict(low=0.0),
                                 "walking_speed": dict(low=0.0, low_open=True),
                                 "standing": dict(low=0.0),
-                                "gate": dict(low=0.0, low_open=True)})
+                                "gate": dict(low=0.0, low_open=True),
+                                "standing_map": dict(low=0.0)})

@@ -24,6 +24,7 @@ from .nlp import NlpSolver
 from .records import Plan
 from .sampling import SamplingPlanner
 from .stall import StallMonitor
+from .standing import StandingPeople
 from .start_state import as_state, start_overlap
 from .starts import clip_to_bounds, structured_starts
 from .tracking import SpeedingUp
@@ -94,6 +95,7 @@ class Planner:
         self._fallbacks, self._warned = 0, False
         self.stall = StallMonitor(self.config)
         self.speeding_up = SpeedingUp(self.config)
+        self.standing = StandingPeople(self.config)
         self.last_evaluator = None
 
     def prepare(self, max_objects: int | None = None) -> dict:
@@ -128,6 +130,7 @@ class Planner:
         self._fallbacks, self._warned = 0, False
         self.stall.reset()
         self.speeding_up.reset()
+        self.standing.reset()
 
     def plan(self, state: RobotState, world: World, goal, *, dock: bool = True,
              sample: bool = False, goal_tolerance: float = 0.0) -> Plan:
@@ -186,6 +189,8 @@ class Planner:
         config = self.stall.config_for(level)
         world = self._try(trouble, "the walkers' speeds", self.speeding_up.update, world) \
             or world
+        world = self._try(trouble, "the standing people", self.standing.update, world,
+                          (state.x, state.y), goal) or world
         starts = self._try(trouble, "the starts", structured_starts, state, goal, self.config,
                           self._previous_target, self.solver) or {}
         cycle = self._try(trouble, "the cycle", Cycle.prepare, state, world, goal, config)

@@ -15,10 +15,19 @@ from ..core.config import PlannerConfig
 from ..core.world import DynamicObstacle, World
 
 
-def _pedestrians(world: World) -> list:
+def pedestrian_indices(world: World) -> list:
     """Indices of the world's one-circle pedestrians."""
     return [i for i, o in enumerate(world.obstacles)
             if o.kind == "pedestrian" and len(o.centers) == 1]
+
+
+def matched(position, expected, gate) -> tuple[np.ndarray, np.ndarray]:
+    """Each person seen now (``position`` (n, 2)) matched to the nearest of last plan's people
+    where they were predicted to be (``expected`` (m, 2), m >= 1): the index of that one and
+    whether they are within ``gate`` (m) of it, each (n,)."""
+    gap = np.linalg.norm(position[:, None, :] - expected[None, :, :], axis=2)
+    match = np.argmin(gap, axis=1)
+    return match, gap[np.arange(len(position)), match] <= gate
 
 
 class SpeedingUp:
@@ -44,7 +53,7 @@ class SpeedingUp:
         (:meth:`faster`); the people seen now are kept for the next plan."""
         if self.prediction.speeding_up <= 0.0:
             return world
-        index = _pedestrians(world)
+        index = pedestrian_indices(world)
         if not index:
             self.last = None
             return world
@@ -69,10 +78,8 @@ class SpeedingUp:
         plan (their match slower than ``standing``) and walks now, along their heading at
         ``speed + lookahead * rise`` capped at ``walking_speed`` (never below ``speed``)."""
         prediction = self.prediction
-        expected = last_position + self.period * last_velocity
-        gap = np.linalg.norm(position[:, None, :] - expected[None, :, :], axis=2)
-        match = np.argmin(gap, axis=1)
-        near = gap[np.arange(len(position)), match] <= prediction.gate
+        match, near = matched(position, last_position + self.period * last_velocity,
+                              prediction.gate)
         speed = np.linalg.norm(velocity, axis=1)
         last_speed = np.linalg.norm(last_velocity[match], axis=1)
         rise = speed - last_speed
