@@ -247,10 +247,14 @@ def test_a_stalled_robot_judged_beyond_the_horizon_gets_through(beyond, outcome)
     beyond the horizon"): with the turns judged over the horizon only, every plan creeps and
     puts its passage between two standing people off until the time runs out; judged 2.5 s
     further once stalled (``judge_level`` 1), a turn in place wins and the robot arrives.
-    Either solver (``fast`` as CI's slow run, or IPOPT)."""
+    Either solver (``fast`` as CI's slow run, or IPOPT). The standing map is off here, as
+    when this was measured: drawing the two people, it lets the fast solver's robot through
+    without the judging, while IPOPT's still times out (the published runs' 210, before and
+    after the standing map)."""
     solver = os.environ.get("DSMPEPC_CLAIMS_SOLVER", "nlp")
     settings = cn.CrowdNavSettings(scene="square", setting="invisible", solver=solver,
                                    overrides=(("stall.judge_beyond", beyond),
-                                              ("stall.judge_level", 1)))
+                                              ("stall.judge_level", 1),
+                                              ("prediction.standing_map", 0.0)))
     log, _ = cn.simulate_episode(settings, "ds-mpepc", 210, 0, record_trajectories=False)
     assert log.outcomes == [outcome]
