@@ -99,21 +99,18 @@ def test_a_planner_draws_standing_people_after_a_second_and_forgets_them_on_rese
     solver = SolverConfig.sampling(n_samples=256)
     off = dataclasses.replace(CONFIG, prediction=PredictionConfig(standing_map=0.0))
     world, state = people(*PAIR), (1.0, 0.0, np.pi / 2, 0.0, 0.0)
-    plans = {}
-    for name, config in (("on", CONFIG), ("off", off)):
-        planner = Planner(config, solver, strict=True)
-        plans[name] = [planner.plan(state, world, GOAL) for _ in range(PLANS_TO_HOLD + 1)]
-        assert all(np.isfinite(p.fun) for p in plans[name])
+    planners = {name: Planner(config, solver, strict=True)
+                for name, config in (("on", CONFIG), ("off", off))}
+    plans = {name: [planner.plan(state, world, GOAL) for _ in range(PLANS_TO_HOLD + 1)]
+             for name, planner in planners.items()}
+    assert all(np.isfinite(p.fun) for name in plans for p in plans[name])
     # The same plans until the pair has stood a second; then progress is read round them.
     for before_on, before_off in zip(plans["on"][:PLANS_TO_HOLD - 1], plans["off"]):
         np.testing.assert_allclose(before_on.x, before_off.x)
-    assert planner.standing.drawn is None
+    assert planners["on"].standing.drawn is not None and planners["off"].standing.drawn is None
     assert plans["on"][-1].cost.terms["progress"] != pytest.approx(
         plans["off"][-1].cost.terms["progress"], rel=1e-6)
-    on = Planner(CONFIG, solver, strict=True)
-    for _ in range(PLANS_TO_HOLD):
-        on.plan(state, world, GOAL)
-    assert on.standing.drawn is not None
+    on = planners["on"]
     on.reset()
     assert on.standing.drawn is None and on.standing.last is None
     np.testing.assert_allclose(on.plan(state, world, GOAL).x, plans["off"][0].x)

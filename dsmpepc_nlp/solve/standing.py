@@ -55,7 +55,8 @@ class StandingPeople:
         self.reset()
 
     def reset(self) -> None:
-        """Forget last plan's people and the last grid (a new episode)."""
+        """Forget last plan's people and the last drawn world (a new episode); the drawn
+        world keeps its grid's navigation functions for the next plan that draws the same."""
         self.last = None
         self.drawn = None
 
@@ -72,15 +73,15 @@ class StandingPeople:
         still = [p for p, t in zip(people, stood) if t >= hold]
         occupied, origin = self._draw(still, np.asarray(position, float),
                                       np.asarray(goal, float))
+        last = self.drawn
         if occupied is None:
             self.drawn = None
             return world
-        if self.drawn is not None and np.array_equal(self.drawn[1], origin) \
-                and np.array_equal(self.drawn[0].grid.occupied, occupied):
-            return self.drawn[0].with_obstacles(world.obstacles)
-        drawn = World(OccupancyGrid.derived(occupied, RESOLUTION, origin), world.obstacles)
-        self.drawn = (drawn, origin)
-        return drawn
+        if last is not None and np.array_equal(last.grid.origin, origin) \
+                and np.array_equal(last.grid.occupied, occupied):
+            return last.with_obstacles(world.obstacles)
+        self.drawn = World(OccupancyGrid.derived(occupied, RESOLUTION, origin), world.obstacles)
+        return self.drawn
 
     def _stood(self, people) -> np.ndarray:
         """Seconds each person has stood (slower than ``standing``) up to this plan, counted in
