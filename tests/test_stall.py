@@ -282,9 +282,9 @@ def test_a_person_beside_the_goal_keeps_the_robot_off_it_only_without_the_region
     read at 0.1 m from it, the robot never arrives; docking within the task's 0.3 m
     tolerance, it does. The docking alone: the ladder climbs only for a robot that stands
     (``stall.min_progress`` 0); the product's ladder also frees the robot that hovers. The
-    standing map (``prediction.standing_map``) is off in these runs: it draws the person, and
-    without the region the product's ladder then arrives at 0.7 m not at 14.8-15.0 s but past
-    the 15 s; the product's defaults, region and standing map on, arrive at 4.2 s."""
+    standing map (``prediction.standing_map``) is off in these runs, which isolate docking:
+    it draws the person, and without the region the last-second arrival at 0.7 m then comes
+    too late; the product's defaults, region and standing map on, arrive."""
     from dsmpepc_nlp.sim.simulate import simulate
     from dsmpepc_nlp.sim.types import Agent, FixedGoal, Scenario
 
