@@ -28,8 +28,9 @@ import numpy as np
 
 from ..core.config import PlannerConfig
 from ..core.control_law import Trajectory, commanded, rollout_from
-from ..core.exact_cost import evaluate, exact_geometry
-from . import docking
+from ..core.exact_cost import evaluate
+from . import docking, passive
+from .passive import clearance
 from .records import Plan
 
 TURN_RADIUS = 1.0
@@ -340,17 +341,6 @@ def stacked(trajectories) -> Trajectory:
                         for f in dataclasses.fields(Trajectory)))
 
 
-def clearance(trajectories: Trajectory, cycle, within: float) -> np.ndarray:
-    """m, per trajectory of the batch: the smallest gap between its footprint and any object
-    (the map; the people where the cost predicts them) over its first ``within`` seconds,
-    the exact geometry's distance; inf with nothing around."""
-    distance = exact_geometry(trajectories, cycle.world, cycle.goal, cycle.config).distance
-    if distance.shape[-1] == 0:
-        return np.full(len(trajectories), np.inf)
-    steps = math.ceil(within / cycle.config.horizon.dt - 1e-9)
-    return distance[:, :steps + 1].min(axis=(1, 2))
-
-
 class Ways:
     """This cycle's dodges and reverses from ``state``, each built once, when first read (a
     doomed plan that stays the clearest meets the same ways again in :func:`consider`)."""
@@ -385,15 +375,26 @@ def clearest(plan: Plan, state, cycle, arrival: float = math.inf,
     candidates = stacked([plan.trajectory, dodges, ways.reverses])
     gaps = clearance(candidates, cycle, stall.clearance_within)
     gaps = np.where(np.isnan(gaps), -np.inf, gaps)           # a gap not measured keeps nothing
-    best = int(np.argmax(gaps))
-    if not gaps[best] > gaps[0] + CLEARER:
-        return None
-    chosen = candidates[best]
-    what = (_dodge_named(chosen) if best <= len(dodges)
-            else _reverse_named(best - 1 - len(dodges), config))
+    still = (stall.passive and not np.max(gaps) >= 0.0       # every way touches someone, the
+             and clearance(candidates[:1], cycle, 0.0)[0] >= 0.0)    # start not yet: be still
+    if still:                               # at the contact (passive.py), a stop put second
+        candidates = stacked([candidates[:1], passive.stopping(state, config), candidates[1:]])
+        gaps = np.insert(gaps, 1, clearance(candidates[1:2], cycle, stall.clearance_within))
+        best = passive.least_approaching(candidates, gaps, cycle, stall.clearance_within)
+        if best == 0:
+            return None             # the plan is as still as any: the rung goes on by the cost
+    else:
+        best = int(np.argmax(gaps))
+        if not gaps[best] > gaps[0] + CLEARER:
+            return None
+    chosen, way = candidates[best], best - still             # way: its index without the stop
+    what = ("braking to a stop" if still and best == 1 else _dodge_named(chosen)
+            if way <= len(dodges) else _reverse_named(way - 1 - len(dodges), config))
+    how = (f"every way touches someone within {stall.clearance_within:g} s: the way that "
+           f"drives least toward whoever it touches, {what}" if still else
+           f"the clearest way over {stall.clearance_within:g} s, {what}")
     message = (f"the plan is doomed (survival {survival:.2f} < {stall.doomed_below:g} within "
-               f"{within:g} s): the clearest way over {stall.clearance_within:g} s, {what}, "
-               f"keeps {gaps[best]:.2f} m against the plan's {gaps[0]:.2f} m; it replaced: "
-               f"{plan.message}")
+               f"{within:g} s): {how}, keeps {gaps[best]:.2f} m against the plan's "
+               f"{gaps[0]:.2f} m; it replaced: {plan.message}")
     cost = evaluate(chosen, cycle.world, cycle.goal, config)
     return _replaced(plan, chosen, cost, message, "clearing")
