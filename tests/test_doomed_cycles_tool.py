@@ -1,6 +1,7 @@
 """tools/doomed_cycles.py: every collision of a benchmark folder replayed plan by plan (the
 same plans, or it says not), and the plans of its last seconds read for their survival."""
 
+import dataclasses
 import json
 
 import numpy as np
@@ -14,11 +15,15 @@ from dsmpepc_nlp.sim.types import Agent, FixedGoal, Pedestrian, Scenario
 
 def head_on_folder(tmp_path):
     """A benchmark-like folder: a person walking at 1.5 m/s into a robot that starts 2 m away
-    (a collision, its episode kept) and a success row without one."""
+    (a collision, its episode kept) and a success row without one. Passive safety is off, so
+    that the last resort makes every plan: with it, one plan in which standing is already the
+    stillest way goes on to the rung's reverse by the cost (``tests/test_passive.py``)."""
     walker = (Pedestrian.constant((2.0, 0.0), (-1.5, 0.0), 0.3),)
     scenario = Scenario("head-on", (Agent("robot", RobotState(0.0, 0.0, 0.0),
                                           FixedGoal((5.0, 0.0))),), None, walker, duration=3.0)
-    episode = simulate(scenario, PlannerConfig(), SolverConfig.sampling(n_samples=64),
+    config = PlannerConfig()
+    config = dataclasses.replace(config, stall=dataclasses.replace(config.stall, passive=False))
+    episode = simulate(scenario, config, SolverConfig.sampling(n_samples=64),
                        np.random.default_rng(0), record_trajectories=False)
     assert episode.outcomes == ["collision"]
     episode.save(tmp_path / "episodes" / "head-on.npz")
