@@ -361,7 +361,7 @@ def clearest(plan: Plan, state, cycle, arrival: float = math.inf,
     ends, as :func:`consider` reads it) is below ``doomed_below``. Then the plan and this
     cycle's :class:`Ways` (``ways`` if already made) are set by their :func:`clearance` over
     the next ``clearance_within`` seconds instead of their cost, and the clearest replaces
-    the plan when its gap is wider than the plan's."""
+    the plan when its gap is wider; all below 0, the least approaching (``stall.passive``)."""
     config = cycle.config
     stall = config.stall
     if not stall.doomed_below > 0.0:
