@@ -107,13 +107,23 @@ def _static_inverse_ttc(points, headings, speeds, world, config):
     return np.max(_inverse(speeds[:, None], along), axis=-1)
 
 
-def _dynamic_geometry(poses, speeds, world, config, points, times):
-    """Distance and 1/TTC per dynamic obstacle, (n, N+1, M_dyn) each."""
-    centers, radii, velocities, owner = world.stacked_obstacles()
+def circle_gaps(world, config, points, times):
+    """Every footprint circle against every dynamic-obstacle circle, predicted at constant
+    velocity: ``rel`` (n, N+1, C, K, 2), the footprint circle's centre less the obstacle
+    circle's, m, and ``gap`` (n, N+1, C, K), their distance less both radii, m (below 0 where
+    they overlap), for footprint centres ``points`` (n, N+1, C, 2) at ``times`` (N+1,)."""
+    centers, radii, velocities, _ = world.stacked_obstacles()
     robot_radii = np.array([r for _, _, r in config.robot.footprint])
     predicted = centers[None, :, :] + velocities[None, :, :] * times[:, None, None]  # (N+1,K,2)
     rel = points[..., :, None, :] - predicted[None, :, None, :, :]           # (n,N+1,C,K,2)
-    gap = np.linalg.norm(rel, axis=-1) - robot_radii[:, None] - radii        # (n,N+1,C,K)
+    return rel, np.linalg.norm(rel, axis=-1) - robot_radii[:, None] - radii
+
+
+def _dynamic_geometry(poses, speeds, world, config, points, times):
+    """Distance and 1/TTC per dynamic obstacle, (n, N+1, M_dyn) each."""
+    _, radii, velocities, owner = world.stacked_obstacles()
+    robot_radii = np.array([r for _, _, r in config.robot.footprint])
+    rel, gap = circle_gaps(world, config, points, times)                    # (n,N+1,C,K)
     starts = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
     distance = np.minimum.reduceat(gap.min(axis=-2), starts, axis=-1)
     inv_ttc = np.zeros_like(distance)

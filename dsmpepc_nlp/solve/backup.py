@@ -387,7 +387,7 @@ def clearest(plan: Plan, state, cycle, arrival: float = math.inf,
         best = int(np.argmax(gaps))
         if not gaps[best] > gaps[0] + CLEARER:
             return None
-    chosen, way = candidates[best], best - still             # way: its index without the stop
+    chosen, way = candidates[best], best - 1 if still else best     # way: without the stop
     what = ("braking to a stop" if still and best == 1 else _dodge_named(chosen)
             if way <= len(dodges) else _reverse_named(way - 1 - len(dodges), config))
     how = (f"every way touches someone within {stall.clearance_within:g} s: the way that "

@@ -22,9 +22,10 @@ import math
 import numpy as np
 
 from ..core.config import PlannerConfig
-from ..core.control_law import Trajectory, commanded
-from ..core.exact_cost import exact_geometry
+from ..core.control_law import Trajectory, rollout
+from ..core.exact_cost import circle_gaps, exact_geometry
 from ..core.geometry import footprint_points
+from .starts import stop_z
 
 STILL = 0.01
 """m/s: ways within this of the least approach are as still (a centimetre a second, above
@@ -43,9 +44,9 @@ def clearance(trajectories: Trajectory, cycle, within: float) -> np.ndarray:
 
 
 def stopping(state, config: PlannerConfig) -> Trajectory:
-    """One trajectory from ``state``: speed and turn rate braked to zero within the robot's
-    acceleration limits (from where the law's rollouts start) and held there."""
-    return commanded(state, config, np.zeros((1, config.horizon.n_steps, 2)))
+    """A batch of one from ``state``: the stop trajectory (:func:`.starts.stop_z`), speed and
+    turn rate braked to zero within the robot's limits and held there."""
+    return rollout(stop_z(config)[None, :], state, config)
 
 
 def approach_at_contact(trajectories: Trajectory, cycle, within: float) -> np.ndarray:
@@ -69,16 +70,11 @@ def approach_at_contact(trajectories: Trajectory, cycle, within: float) -> np.nd
         fast = np.maximum(np.abs(arriving), np.abs(leaving))[np.arange(n), walls.argmax(1)]
         approach = np.where(walls.any(axis=1), fast, 0.0)
     if world.obstacles:
-        centers, radii, velocities, _ = world.stacked_obstacles()
-        times = np.arange(s) * config.horizon.dt
-        predicted = centers + velocities * times[:, None, None]                     # (s,K,2)
         points = footprint_points(poses, config.robot.footprint)                    # (n,s,C,2)
-        robot_radii = np.array([r for _, _, r in config.robot.footprint])
-        apart = predicted[None, :, None] - points[..., None, :]                    # (n,s,C,K,2)
-        length = np.linalg.norm(apart, axis=-1)
-        touching = length < robot_radii[:, None] + radii
+        rel, gap = circle_gaps(world, config, points, np.arange(s) * config.horizon.dt)
+        touching, length = gap < 0.0, np.linalg.norm(rel, axis=-1)               # (n,s,C,K)
         heading = np.stack([np.cos(poses[..., 2]), np.sin(poses[..., 2])], -1)     # (n,s,2)
-        along = np.einsum("nsckd,nsd->nsck", apart, heading) / np.maximum(length, 1e-12)
+        along = -np.einsum("nsckd,nsd->nsck", rel, heading) / np.maximum(length, 1e-12)
         toward = np.maximum(along * arriving[..., None, None], along * leaving[..., None, None])
         toward = np.where(touching, toward, -np.inf).max(axis=2)                   # (n,s,K)
         first = touching.any(axis=2).argmax(axis=1)[:, None]                       # (n,1,K)

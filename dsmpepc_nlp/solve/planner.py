@@ -26,7 +26,7 @@ from .sampling import SamplingPlanner
 from .stall import StallMonitor
 from .standing import StandingPeople
 from .start_state import as_state, start_overlap
-from .starts import clip_to_bounds, structured_starts
+from .starts import stop_z, structured_starts
 from .tracking import SpeedingUp
 
 FALLBACK_STATUSES = ("sampling-fallback", "stopped")
@@ -321,7 +321,7 @@ class Planner:
         Its cost is reported as ``inf``: nothing could be measured, and a plan is never NaN.
         Should even the rollout fail, the robot holds its pose over the horizon.
         """
-        z = clip_to_bounds(np.array([1.0, 0.0, 0.0, 0.0]), self.config)
+        z = stop_z(self.config)
         n_steps = self.config.horizon.n_steps
         try:
             trajectory = rollout(z, state, self.config)

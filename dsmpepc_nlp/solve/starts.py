@@ -22,6 +22,13 @@ def clip_to_bounds(z, config: PlannerConfig) -> np.ndarray:
     return np.clip(np.asarray(z, dtype=float), config.z_lower, config.z_upper)
 
 
+def stop_z(config: PlannerConfig) -> np.ndarray:
+    """The stop trajectory's z (4,): ``v_max`` = 0 toward a target 1 m straight ahead, in the
+    box. The law then brakes within the robot's limits and holds still: the planner's plan
+    when nothing finite is found, and the last resort's way to be still (:mod:`.passive`)."""
+    return clip_to_bounds(np.array([1.0, 0.0, 0.0, 0.0]), config)
+
+
 def structured_starts(state: RobotState, goal, config: PlannerConfig,
                       previous_target=None, solver: SolverConfig | None = None) -> dict:
     """The named starts of docs/method.md section 6.3, each a z of shape (4,) inside the box.
