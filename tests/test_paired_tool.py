@@ -77,3 +77,31 @@ def test_cases_keeps_one_split(tmp_path, capsys, tool):
     assert json.loads(capsys.readouterr().out)["cases"] == 6
     with pytest.raises(SystemExit):
         tool("paired").main([a, b, "--cases", "5-1"])
+
+
+def test_variant_b_pairs_two_planners_of_one_table(tmp_path, capsys, tool):
+    """A baseline run beside the product (``--variants orca cv``) pairs with the product's own
+    table: ``--variant orca --variant-b ds-mpepc``; without ``--variant-b`` both tables are
+    read for ``--variant`` and the product's table, holding none, pairs nothing."""
+    base = tmp_path / "base.csv"
+    with open(base, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, ["episode", "variant", "outcome", "time_to_goal"])
+        writer.writeheader()
+        for i, (orca, cv) in enumerate([("success", "collision"), ("collision", "success"),
+                                        ("deadlock", "collision")]):
+            writer.writerow({"episode": i, "variant": "orca", "outcome": orca,
+                             "time_to_goal": 9.0 if orca == "success" else ""})
+            writer.writerow({"episode": i, "variant": "cv", "outcome": cv,
+                             "time_to_goal": 7.0 if cv == "success" else ""})
+    product = write(tmp_path / "product.csv", ["collision", "success", "success"])
+    paired = tool("paired")
+    assert paired.main([str(base), product, "--variant", "orca", "--variant-b", "ds-mpepc",
+                        "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["cases"] == 3 and result["only_a"] == ["0"] and result["only_b"] == ["1", "2"]
+    assert paired.main([str(base), product, "--variant", "cv", "--variant-b", "ds-mpepc",
+                        "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["only_a"] == [] and result["only_b"] == ["2"]
+    with pytest.raises(SystemExit, match="share no case"):
+        paired.main([str(base), product, "--variant", "orca"])

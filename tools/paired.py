@@ -2,15 +2,17 @@
 
 Reads the ``.csv`` of two ``--out`` folders of the same benchmark (``dsmpepc benchmark barn``,
 ``crowd`` or ``crowdnav``) and pairs their rows by case (``world`` for BARN, ``episode``
-otherwise; one variant, the first in the table unless ``--variant``). Prints each table's
-success rate on the shared cases, the cases only A or only B succeeds in, the two-sided sign
-test on those, the collision count of each, the mean time of each table's successes
-(``time_to_goal``, or ``time`` where a table has none) and, over the cases both succeed in,
-each table's mean time and how many of them B ends sooner and later than A::
+otherwise; one variant, the first in the table unless ``--variant``; ``--variant-b`` sets
+B's apart, to pair two planners run on the same cases, e.g. the product against ORCA). Prints
+each table's success rate on the shared cases, the cases only A or only B succeeds in, the
+two-sided sign test on those, the collision count of each, the mean time of each table's
+successes (``time_to_goal``, or ``time`` where a table has none) and, over the cases both
+succeed in, each table's mean time and how many of them B ends sooner and later than A::
 
     python tools/paired.py BEFORE/crowdnav.csv AFTER/crowdnav.csv
     python tools/paired.py BEFORE/barn.csv AFTER/barn.csv --json
     python tools/paired.py PAPER/barn.csv PRODUCT/barn.csv --cases 1-299:2   # the odd worlds
+    python tools/paired.py BASE/crowd.csv PRODUCT/crowd.csv --variant orca --variant-b ds-mpepc
 
 ``--cases`` keeps only those cases (the package's index syntax: ``0-5,10``, ``1-299:2``): one
 split of tables that hold both.
@@ -101,6 +103,8 @@ def main(argv=None) -> int:
     parser.add_argument("a", help="table A (.csv of a benchmark's --out)")
     parser.add_argument("b", help="table B, the same benchmark")
     parser.add_argument("--variant", help="the variant to compare (default: each table's first)")
+    parser.add_argument("--variant-b", help="table B's variant, where it differs from A's "
+                        "(default: --variant)")
     parser.add_argument("--cases", help="only these cases, e.g. 1-299:2 (BARN's odd worlds)")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     args = parser.parse_args(argv)
@@ -108,7 +112,7 @@ def main(argv=None) -> int:
         cases = None if args.cases is None else parse_indices(args.cases, "--cases")
     except ValueError as error:
         parser.error(str(error))
-    result = compare(load(args.a, args.variant, cases), load(args.b, args.variant, cases))
+    result = compare(load(args.a, args.variant, cases), load(args.b, args.variant_b or args.variant, cases))
     if args.json:
         json.dump(result, sys.stdout)
         print()
