@@ -112,7 +112,8 @@ def main(argv=None) -> int:
         cases = None if args.cases is None else parse_indices(args.cases, "--cases")
     except ValueError as error:
         parser.error(str(error))
-    result = compare(load(args.a, args.variant, cases), load(args.b, args.variant_b or args.variant, cases))
+    result = compare(load(args.a, args.variant, cases),
+                     load(args.b, args.variant_b or args.variant, cases))
     if args.json:
         json.dump(result, sys.stdout)
         print()
