@@ -7,6 +7,8 @@ import dataclasses
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from dsmpepc_nlp.core.config import PlannerConfig, PredictionConfig
 from dsmpepc_nlp.core.errors import InputError
@@ -120,3 +122,30 @@ def test_a_planner_draws_standing_people_after_a_second_and_forgets_them_on_rese
 def test_a_bad_standing_time_is_refused_by_name(value):
     with pytest.raises(InputError, match="standing_map"):
         PredictionConfig(standing_map=value)
+
+
+@settings(max_examples=60)
+@given(st.lists(st.tuples(st.floats(-6.0, 6.0), st.floats(-6.0, 8.0), st.floats(0.1, 0.6)),
+                min_size=1, max_size=8))
+def test_the_drawn_cells_are_every_cell_whose_centre_a_person_covers(rows):
+    """Each person is drawn only in the cells round them; the grid is the one every cell's
+    test against every person gives (people at its edges and beyond it included)."""
+    still = [DynamicObstacle.pedestrian((x, y), (0.0, 0.0), radius) for x, y, radius in rows]
+    tracker = StandingPeople(CONFIG)
+    position, goal = np.array(ROBOT), np.array(GOAL)
+    occupied, origin = tracker._draw(still, position, goal)
+    kept = [p for p in still
+            if np.hypot(*(p.centers[0] - goal)) >= p.radii[0] + CONFIG.robot.bounding_radius
+            and np.hypot(*(p.centers[0] - position)) >= p.radii[0] + CONFIG.robot.bounding_radius]
+    if occupied is None:
+        assert origin is None
+        return
+    ny, nx = occupied.shape
+    xs = origin[0] + (np.arange(nx) + 0.5) * RESOLUTION
+    ys = origin[1] + (np.arange(ny) + 0.5) * RESOLUTION
+    expected = np.zeros_like(occupied)
+    for p in kept:
+        expected |= np.hypot(xs[None, :] - p.centers[0][0],
+                             ys[:, None] - p.centers[0][1]) <= p.radii[0]
+    np.testing.assert_array_equal(occupied, expected)
+    assert expected.any()

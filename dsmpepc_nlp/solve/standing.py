@@ -107,6 +107,8 @@ class StandingPeople:
         whose disc, grown by the robot's radius, covers the goal or the robot is left out: the
         goal is theirs to leave (docking's business), and a robot already beside them must not
         stand inside its own map's wall."""
+        if not still:
+            return None, None
         robot_radius = self.config.robot.bounding_radius
         ahead = goal - position
         far = float(np.hypot(*ahead))
@@ -123,7 +125,19 @@ class StandingPeople:
             clear = radius + robot_radius
             if np.hypot(*(centre - goal)) < clear or np.hypot(*(centre - position)) < clear:
                 continue
-            occupied |= np.hypot(xs[None, :] - centre[0], ys[:, None] - centre[1]) <= radius
+            # Only the cells round them: a disc spans a few cells of a grid of thousands.
+            i0, i1 = _cells(centre[0] - radius, centre[0] + radius, low[0], shape[0])
+            j0, j1 = _cells(centre[1] - radius, centre[1] + radius, low[1], shape[1])
+            occupied[j0:j1, i0:i1] |= np.hypot(xs[None, i0:i1] - centre[0],
+                                               ys[j0:j1, None] - centre[1]) <= radius
         if not occupied.any():
             return None, None
         return occupied, low
+
+
+def _cells(lo: float, hi: float, origin: float, n: int) -> tuple:
+    """The cells ``[first, last)`` of an axis of ``n`` cells from ``origin`` whose centres
+    may lie in ``[lo, hi]`` (one cell of slack each side), clipped to the grid."""
+    first = int(math.floor((lo - origin) / RESOLUTION)) - 1
+    last = int(math.ceil((hi - origin) / RESOLUTION)) + 1
+    return max(first, 0), min(max(last, 0), n)
