@@ -124,3 +124,42 @@ def test_on_by_default_off_in_the_paper_preset():
     assert PlannerConfig.paper().stall.passive is False
     with pytest.raises(InputError, match="passive"):
         StallConfig(passive="yes")
+
+
+def test_a_turn_in_place_swings_a_circle_off_the_centre_into_whoever_it_touches():
+    """A robot of three circles in a row (BARN's Jackal) turning in place: its end circles
+    move at the turn rate times their offset, as the simulator's at-fault test reads a
+    contact, so a turn that swings the front circle into a person beside it approaches them
+    (read by the speed along the heading alone, it was still), and a wall it swings into counts
+    that circle's speed; a one-circle robot turning in place approaches no one."""
+    from dsmpepc_nlp.bench.barn import jackal_robot
+    from dsmpepc_nlp.solve.docking import turn_in_place
+
+    config = dataclasses.replace(with_passive(True), robot=jackal_robot())
+    offset = config.robot.footprint[-1][0]
+    standing = RobotState(0.0, 0.0, 0.0, 0.0, 0.0)
+    left, right = turn_in_place(standing, config, 1.0), turn_in_place(standing, config, -1.0)
+    turns = backup.stacked([left, right])
+    points = passive.footprint_points(turns.poses, config.robot.footprint)
+    arriving, leaving = passive.circle_velocities(turns, points)
+    omega = turns.omega[0, 1]
+    np.testing.assert_allclose(np.linalg.norm(leaving[0, 1], axis=-1),
+                               [abs(omega) * offset, 0.0, abs(omega) * offset], atol=1e-12)
+    np.testing.assert_allclose(leaving[0, 1, 2] @ [math.cos(turns.poses[0, 1, 2]),
+                                                    math.sin(turns.poses[0, 1, 2])], 0.0,
+                               atol=1e-12)                   # across the robot, not along it
+    beside = World(obstacles=[DynamicObstacle.pedestrian((offset, 0.55), (0.0, 0.0), 0.3)])
+    cycle = Cycle.prepare(standing, beside, GOAL, config)
+    toward = passive.approach_at_contact(turns[:1], cycle, 1.0)[0]
+    assert toward > 0.1                                  # left swings the front circle at them
+    occupied = np.zeros((40, 40), bool)
+    occupied[:, 21:] = True                                      # a wall from x = 0.1 m
+    wall = World(OccupancyGrid.from_array(occupied, 0.1, (-2.0, -2.0)))
+    hit = passive.approach_at_contact(turns[:1], Cycle.prepare(standing, wall, GOAL, config),
+                                      1.0)
+    assert hit[0] > 0.1
+    one = with_passive(True)
+    spin = backup.stacked([turn_in_place(standing, one, 1.0)])
+    near = World(obstacles=[DynamicObstacle.pedestrian((0.0, 0.55), (0.0, 0.0), 0.3)])
+    assert passive.approach_at_contact(spin, Cycle.prepare(standing, near, GOAL, one),
+                                       1.0)[0] == 0.0

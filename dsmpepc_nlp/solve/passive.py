@@ -52,35 +52,56 @@ def stopping(state, config: PlannerConfig) -> Trajectory:
 def approach_at_contact(trajectories: Trajectory, cycle, within: float) -> np.ndarray:
     """m/s, per trajectory of the batch: its fastest approach at a contact over its first
     ``within`` seconds. At the first pose whose footprint overlaps each person (the people
-    where the cost predicts them), the speed it arrives or leaves with along the line from
-    the footprint's circle to the person's (what the contact's fault is read by; later poses
-    are the prediction walking them through the robot); at the first pose that overlaps the
-    map, the whole speed (a wall does not give way). 0 where it touches nothing or only moves
-    away."""
+    where the cost predicts them), the velocity its overlapping footprint circle arrives or
+    leaves with (:func:`circle_velocities`), along the line from that circle to the person's
+    (what the contact's fault is read by; later poses are the prediction walking them through
+    the robot); at the first pose that overlaps the map, the whole speed of its fastest circle
+    (a wall does not give way). 0 where it touches nothing or only moves away."""
     config, world = cycle.config, cycle.world
     steps = math.ceil(within / config.horizon.dt - 1e-9)
     poses = trajectories.poses[:, :steps + 1]
     n, s = poses.shape[:2]
-    v = np.asarray(trajectories.v, dtype=float)
-    arriving = np.concatenate([v[:, :1], v], axis=1)[:, :s]       # the start's from period 0
-    leaving = np.concatenate([v, v[:, -1:]], axis=1)[:, :s]
+    points = footprint_points(poses, config.robot.footprint)                        # (n,s,C,2)
+    arriving, leaving = circle_velocities(trajectories, points)                     # (n,s,C,2)
     approach = np.zeros(n)
     if world.grid is not None:                           # the map's column comes first
         walls = exact_geometry(trajectories, world, cycle.goal, config).distance[:, :s, 0] < 0
-        fast = np.maximum(np.abs(arriving), np.abs(leaving))[np.arange(n), walls.argmax(1)]
-        approach = np.where(walls.any(axis=1), fast, 0.0)
+        fast = np.maximum(np.linalg.norm(arriving, axis=-1),
+                          np.linalg.norm(leaving, axis=-1)).max(axis=-1)              # (n,s)
+        approach = np.where(walls.any(axis=1), fast[np.arange(n), walls.argmax(1)], 0.0)
     if world.obstacles:
-        points = footprint_points(poses, config.robot.footprint)                    # (n,s,C,2)
         rel, gap = circle_gaps(world, config, points, np.arange(s) * config.horizon.dt)
-        touching, length = gap < 0.0, np.linalg.norm(rel, axis=-1)               # (n,s,C,K)
-        heading = np.stack([np.cos(poses[..., 2]), np.sin(poses[..., 2])], -1)     # (n,s,2)
-        along = -np.einsum("nsckd,nsd->nsck", rel, heading) / np.maximum(length, 1e-12)
-        toward = np.maximum(along * arriving[..., None, None], along * leaving[..., None, None])
+        touching = gap < 0.0                                                        # (n,s,C,K)
+        toward_them = -rel / np.maximum(np.linalg.norm(rel, axis=-1), 1e-12)[..., None]
+        toward = np.maximum(np.einsum("nscd,nsckd->nsck", arriving, toward_them),
+                            np.einsum("nscd,nsckd->nsck", leaving, toward_them))
         toward = np.where(touching, toward, -np.inf).max(axis=2)                   # (n,s,K)
         first = touching.any(axis=2).argmax(axis=1)[:, None]                       # (n,1,K)
         at_first = np.take_along_axis(toward, first, axis=1)[:, 0]                 # (n,K)
         approach = np.maximum(approach, at_first.max(axis=1, initial=0.0))
     return np.maximum(approach, 0.0)
+
+
+def circle_velocities(trajectories: Trajectory, points: np.ndarray) -> tuple:
+    """``(arriving, leaving)``, m/s, each (n, s, C, 2): every footprint circle's velocity over
+    the period that ends at each of the first ``s`` poses and the one that starts there (the
+    start's arriving is its own first period's), for circle centres ``points`` (n, s, C, 2) at
+    those poses: the speed along the heading plus the turn rate swinging the circle's offset
+    from the reference point, so a turn in place moves a circle off the centre as the
+    simulator's at-fault test reads it."""
+    poses = trajectories.poses[:, :points.shape[1]]
+    s = poses.shape[1]
+    offset = points - poses[..., None, :2]                                          # (n,s,C,2)
+    swing = np.stack([-offset[..., 1], offset[..., 0]], axis=-1)
+    heading = np.stack([np.cos(poses[..., 2]), np.sin(poses[..., 2])], axis=-1)     # (n,s,2)
+
+    def velocity(v, omega):                                                         # (n,s)
+        return v[..., None, None] * heading[:, :, None, :] + omega[..., None, None] * swing
+
+    v, omega = (np.asarray(a, dtype=float) for a in (trajectories.v, trajectories.omega))
+    before = [np.concatenate([a[:, :1], a], axis=1)[:, :s] for a in (v, omega)]
+    after = [np.concatenate([a, a[:, -1:]], axis=1)[:, :s] for a in (v, omega)]
+    return velocity(*before), velocity(*after)
 
 
 def least_approaching(trajectories: Trajectory, gaps: np.ndarray, cycle, within: float) -> int:
