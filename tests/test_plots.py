@@ -115,3 +115,24 @@ def test_captions_keep_a_quarter_second():
 
     assert [seconds(t) for t in (0.75, 4.6000000000000005, 9.0, 10.25)] == \
         ["0.75", "4.6", "9.0", "10.25"]
+
+
+def test_compare_figure_frames_every_panel_alike_and_names_a_robot_once():
+    """Runs of one scene drawn side by side share one frame, the union of what each holds (a
+    run that went far is not drawn at another scale); a robot named "robot" is not "robot
+    robot" in the legend."""
+    def run(goal):
+        scenario = Scenario("open", (Agent("robot", RobotState(0.0, 0.0, 0.0),
+                                           FixedGoal(goal)),), duration=0.6)
+        return simulate(scenario, PlannerConfig(), SolverConfig(method="sampling",
+                                                                n_samples=32),
+                        np.random.default_rng(0))
+
+    near, far = run((2.0, 0.0)), run((0.0, 6.0))
+    fig = plots.compare_figure({"near": near, "far": far})
+    (a, b) = fig.axes[:2]
+    assert a.get_xlim() == b.get_xlim() and a.get_ylim() == b.get_ylim()
+    assert a.get_xlim()[1] >= 3.0 and a.get_ylim()[1] >= 7.0          # both goals, 1 m round
+    labels = b.get_legend_handles_labels()[1]
+    assert "robot (path)" in labels and "robot robot (path)" not in labels
+    plt.close(fig)

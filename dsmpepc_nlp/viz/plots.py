@@ -113,6 +113,12 @@ def outcome_caption(episode) -> str:
     return "outcome: " + "; ".join(words)
 
 
+def _robot_named(name) -> str:
+    """``robot NAME``, or the name alone where it already says robot (a replay's one robot)."""
+    name = str(name)
+    return name if name.lower().startswith("robot") else f"robot {name}"
+
+
 def _axes_labels(ax) -> None:
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
@@ -151,7 +157,7 @@ def draw_cycle(ax, episode, cycle: int, *, samples: bool = True, title: bool = T
                         label=_once(seen, "sampled trajectories"))
         path = episode.states[i, :k + 1]
         ax.plot(path[:, 0], path[:, 1], color=colour, lw=1.5, zorder=3,
-                label=f"robot {name!s} (path)")
+                label=f"{_robot_named(name)} (path)")
         if episode.plan_poses is not None and k < episode.n_cycles and episode.active[i, k]:
             plan = episode.plan_poses[i, k]
             ax.plot(plan[:, 0], plan[:, 1], color=colour, lw=1.0, ls="--", zorder=3,
@@ -208,6 +214,13 @@ def compare_figure(episodes: dict, *, path=None):
         draw_cycle(ax, episode, episode.n_cycles, samples=False, title=False, full_paths=True)
         outcomes = outcome_caption(episode).removeprefix("outcome: ")
         ax.set_title(f"{name}: {outcomes}", fontsize=8, wrap=True)
+    # One frame for every panel (each drew its own round what it holds), so the runs of one
+    # scene compare place for place.
+    xs = np.array([ax.get_xlim() for ax in axes[0]])
+    ys = np.array([ax.get_ylim() for ax in axes[0]])
+    for ax in axes[0]:
+        ax.set_xlim(xs[:, 0].min(), xs[:, 1].max())
+        ax.set_ylim(ys[:, 0].min(), ys[:, 1].max())
     legend(axes[0, -1])
     # Height from the scene's aspect ratio, so a long corridor is not framed by blank space.
     (x0, x1), (y0, y1) = axes[0, 0].get_xlim(), axes[0, 0].get_ylim()
