@@ -69,17 +69,17 @@ def planner_for(footprint):
 
 
 def assert_control_in_limits(plan, config):
-    """Forward within the robot's limits (the rung's dodges included); reverse only for the
-    back-up rung and its last resort, at most the rung's speed, also from a start in collision
-    (its status then says so and its message names the reverse; a planner reused across
-    situations can think itself stalled)."""
+    """Within the robot's declared limits, ``[-reverse_limit, v_limit]``; reverse only for the
+    back-up rung, its last resort, at most the rung's speed, and a robot in collision braking
+    a measured reverse (Lemma 3)."""
     v, omega = plan.control
     robot = config.robot
     assert math.isfinite(v) and math.isfinite(omega)
-    reversing = plan.status in ("backing-up", "clearing") or (
-        plan.status == "start-in-collision" and "backing up" in plan.message)
-    low = -backup.back_up_speed(config) if reversing else 0.0
-    assert low <= v <= robot.v_limit and abs(omega) <= robot.omega_limit
+    assert -robot.reverse_limit <= v <= robot.v_limit and abs(omega) <= robot.omega_limit
+    if plan.status in ("backing-up", "clearing"):
+        assert v >= -backup.back_up_speed(config)
+    elif plan.status != "start-in-collision":
+        assert v >= 0.0, plan.message
 
 
 @settings(max_examples=EXAMPLES)

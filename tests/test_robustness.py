@@ -21,10 +21,11 @@ LIMITS = PlannerConfig().robot
 
 
 def finite_in_limits(plan, robot=LIMITS):
-    """A finite command inside the robot's limits; a reverse only from the back-up rung, at
-    most its speed."""
+    """A finite command inside the robot's limits; a reverse only from the back-up rung or
+    its last resort, at most its speed (within ``reverse_limit``)."""
     v, omega = plan.control
-    low = -backup.back_up_speed(PlannerConfig()) if plan.status == "backing-up" else 0.0
+    reversing = plan.status in ("backing-up", "clearing")
+    low = -backup.back_up_speed(PlannerConfig()) if reversing else 0.0
     return (math.isfinite(v) and math.isfinite(omega) and low <= v <= robot.v_limit
             and abs(omega) <= robot.omega_limit and not math.isnan(plan.fun))
 

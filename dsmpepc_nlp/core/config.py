@@ -33,6 +33,12 @@ class RobotConfig:
     """Largest change of omega per second between steps, rad/s^2; ``inf``: off (our choice)."""
     footprint: tuple = ((0.0, 0.0, 0.3),)
     """Circles ``(cx, cy, radius)`` in the body frame, metres; one circle is a round robot."""
+    reverse_limit: float = 0.3
+    """Largest reversing speed, m/s, >= 0; 0: the robot never reverses. Every negative speed a
+    plan commands (the stall ladder's back-up rung and its last resort) is bounded by it, so
+    ``Plan.control`` lies in ``[-reverse_limit, v_limit]``. The default is the back-up rung's
+    tuned speed (``StallConfig.back_up``), one plan period's braking of the default robot; a
+    robot that senses nothing behind it (a 270-degree lidar) should set 0 (our choice)."""
 
     def __post_init__(self):
         validate_fields(self, {
@@ -40,6 +46,7 @@ class RobotConfig:
             "omega_limit": dict(low=0.0, low_open=True),
             "accel_limit": dict(low=0.0, low_open=True, allow_inf=True),
             "alpha_limit": dict(low=0.0, low_open=True, allow_inf=True),
+            "reverse_limit": dict(low=0.0, high=MAX_SPEED),
         })
         try:
             circles = tuple(tuple(float(c) for c in circle) for circle in self.footprint)

@@ -32,16 +32,19 @@ from ..core.exact_cost import evaluate
 from . import docking, passive
 from .passive import clearance
 from .records import Plan
+from .start_state import bounded_control
 
 TURN_RADIUS = 1.0
 """m: the curving back-ups turn at this radius (omega = speed / radius), either way."""
 
 
 def back_up_speed(config: PlannerConfig) -> float:
-    """The rung's reverse speed, m/s: ``stall.back_up`` capped at ``v_limit`` and at one plan
-    period's braking (``accel_limit * dt``)."""
+    """The rung's reverse speed, m/s: ``stall.back_up`` capped at the robot's declared
+    ``reverse_limit``, at ``v_limit`` and at one plan period's braking (``accel_limit * dt``).
+    0 when the robot never reverses: the rung then has no reverses."""
     robot = config.robot
-    return min(config.stall.back_up, robot.v_limit, robot.accel_limit * config.horizon.dt)
+    return min(config.stall.back_up, robot.reverse_limit, robot.v_limit,
+               robot.accel_limit * config.horizon.dt)
 
 
 def back_up_trajectories(state, config: PlannerConfig) -> Trajectory:
@@ -190,7 +193,7 @@ def judge_turns(plan: Plan, state, cycle, goal_tolerance: float = 0.0) -> Plan |
                f"{_turn_named(best - 1, chosen, plan)}, then heading on (exact cost "
                f"{total[best]:.3f}{sooner}) is cheaper than the plan ({total[0]:.3f}); it "
                f"replaced: {plan.message}")
-    return _replaced(plan, chosen, cost, message, "turning")
+    return _replaced(plan, chosen, cost, message, "turning", config)
 
 
 def _turn_named(index: int, chosen: Trajectory, plan: Plan) -> str:
@@ -203,11 +206,12 @@ def _turn_named(index: int, chosen: Trajectory, plan: Plan) -> str:
     return "left" if chosen.omega[0] > 0 else "right"
 
 
-def _replaced(plan: Plan, chosen: Trajectory, cost, message: str, status: str) -> Plan:
+def _replaced(plan: Plan, chosen: Trajectory, cost, message: str, status: str,
+              config: PlannerConfig) -> Plan:
     """``plan`` replaced by the rung's ``chosen`` trajectory (its exact ``cost``), its first
-    command the control (a stop where it is not finite)."""
-    v0, omega0 = float(chosen.v[0]), float(chosen.omega[0])
-    control = (v0, omega0) if math.isfinite(v0) and math.isfinite(omega0) else (0.0, 0.0)
+    command the control (a stop where it is not finite; within the robot's declared limits,
+    ``reverse_limit`` included)."""
+    control = bounded_control(chosen.v[0], chosen.omega[0], config.robot)
     return dataclasses.replace(plan, x=chosen.z, fun=float(cost.total), success=True,
                                message=message, trajectory=chosen, control=control, cost=cost,
                                status=status)
@@ -265,7 +269,7 @@ def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) 
         return cleared
     threat = threatened(plan, config, arrival)
     stalled = level >= stall.back_up_level
-    reverse = stands(plan, config) and (stalled or threat)
+    reverse = back_up_speed(config) > 0.0 and stands(plan, config) and (stalled or threat)
     dodge = stall.dodge and threatened(plan, config, min(stall.dodge_within, arrival))
     # A docked plan already heads for the goal, turning in place first where it must.
     turn = (level >= stall.turn_level and stall.turn_to_goal > 0.0
@@ -312,13 +316,13 @@ def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) 
     message = (f"{why} (exact cost {plan.fun:.3f}): {what} (exact cost {total[best]:.3f}); "
                f"it replaced: {plan.message}")
     status = {"reverse": "backing-up", "dodge": "dodging", "turn": "turning"}[kind]
-    return _replaced(plan, chosen, costs[best], message, status)
+    return _replaced(plan, chosen, costs[best], message, status, config)
 
 
 def _reverse_named(index: int, config: PlannerConfig) -> str:
     """Row ``index`` of :func:`back_up_trajectories`, in words."""
     return (f"backing up {('straight', 'curving left', 'curving right')[index]} at "
-            f"{config.stall.back_up:g} m/s")
+            f"{back_up_speed(config):g} m/s")
 
 
 def _dodge_named(chosen: Trajectory) -> str:
@@ -372,7 +376,8 @@ def clearest(plan: Plan, state, cycle, arrival: float = math.inf,
         return None
     ways = ways or Ways(state, config)
     dodges = ways.dodges
-    candidates = stacked([plan.trajectory, dodges, ways.reverses])
+    reverses = [ways.reverses] if back_up_speed(config) > 0.0 else []   # a robot that reverses
+    candidates = stacked([plan.trajectory, dodges, *reverses])
     gaps = clearance(candidates, cycle, stall.clearance_within)
     gaps = np.where(np.isnan(gaps), -np.inf, gaps)           # a gap not measured keeps nothing
     still = (stall.passive and not np.max(gaps) >= 0.0       # every way touches someone, the
@@ -397,4 +402,4 @@ def clearest(plan: Plan, state, cycle, arrival: float = math.inf,
                f"{within:g} s): {how}, keeps {gaps[best]:.2f} m against the plan's "
                f"{gaps[0]:.2f} m; it replaced: {plan.message}")
     cost = evaluate(chosen, cycle.world, cycle.goal, config)
-    return _replaced(plan, chosen, cost, message, "clearing")
+    return _replaced(plan, chosen, cost, message, "clearing", config)

@@ -13,7 +13,7 @@ import numpy as np
 from ..core.config import PlannerConfig, RobotState
 from ..core.control_law import Trajectory, rollout
 from ..core.errors import InputError
-from ..core.exact_cost import CostBreakdown
+from ..core.exact_cost import CostBreakdown, evaluate
 from ..core.solver_config import SolverConfig
 from ..core.terms import TERM_NAMES
 from ..core.world import World
@@ -25,7 +25,7 @@ from .records import Plan
 from .sampling import SamplingPlanner
 from .stall import StallMonitor
 from .standing import StandingPeople
-from .start_state import as_state, start_overlap
+from .start_state import as_state, bounded_control, braking, start_overlap
 from .starts import stop_z, structured_starts
 from .tracking import SpeedingUp
 
@@ -182,6 +182,10 @@ class Planner:
         if goal.shape != (2,) or not np.all(np.isfinite(goal)):
             raise InputError(f"goal = {goal!r}: must be a finite (x, y) pair")
         goal_tolerance = _tolerance(goal_tolerance)
+        with np.errstate(all="ignore"):     # a start at 1e300 m overflows; it is no overlap
+            overlap = self._try([], "the overlap", start_overlap, state, world, self.config)
+        if overlap:                         # Lemma 3: brake, and nothing else moves the robot
+            return self._in_collision(state, world, goal, overlap, started)
         # Every stage runs inside the fallback chain: a stage that raises is reported in the
         # message and the next one takes over; the stop trajectory is the last resort.
         trouble = []
@@ -230,11 +234,6 @@ class Planner:
                             success=False)
         if level:
             plan = _replace(plan, message=f"{self.stall.describe(level)}; {plan.message}")
-        with np.errstate(all="ignore"):     # a start at 1e300 m overflows; it is no overlap
-            overlap = self._try([], "the overlap", start_overlap, state, world, self.config)
-        if overlap:
-            plan = _replace(plan, status="start-in-collision", success=False,
-                            message=f"{overlap}; {plan.message}")
         plan = _replace(plan, wall_time=time.perf_counter() - started, evaluated=evaluated,
                         fallbacks_in_row=self._count_fallback(plan), stall_level=level)
         self._previous_target = (plan.trajectory.target, float(plan.x[3]))
@@ -315,6 +314,29 @@ class Planner:
         return self._plan_from(evaluated, index, "sampling", True,
                                f"best of {len(evaluated.z)} sampled trajectories", 0, ())
 
+    def _in_collision(self, state, world, goal, overlap: str, started: float) -> Plan:
+        """The plan of a robot whose footprint already overlaps the map or an object: the
+        braking trajectory (:func:`.start_state.braking`), whatever the preset, the solver or
+        the stall ladder would do (the paper's Lemma 3: in a collision state the robot does
+        not move). Its exact cost, or inf when even that cannot be measured."""
+        trajectory = braking(state, self.config)
+        try:
+            batch = Trajectory(*(np.asarray(getattr(trajectory, f.name))[None]
+                                 for f in dataclasses.fields(Trajectory)))
+            cost = evaluate(batch, world, goal, self.config)[0]
+            fun = float(cost.total) if math.isfinite(float(cost.total)) else math.inf
+        except Exception:  # noqa: BLE001 - a robot in collision must still get its brake
+            cost, fun = _unmeasured(trajectory), math.inf
+        v, omega = float(trajectory.v[0]), float(trajectory.omega[0])
+        message = (f"{overlap}; braking as hard as the limits allow and moving no other way "
+                   f"(Lemma 3): v {state.v:.2f} -> {v:.2f} m/s, omega {state.omega:.2f} -> "
+                   f"{omega:.2f} rad/s")
+        plan = Plan(trajectory.z, fun, False, message, 0, trajectory,
+                    bounded_control(v, omega, self.config.robot), cost, "start-in-collision", ())
+        self._previous_target = None
+        return _replace(plan, wall_time=time.perf_counter() - started,
+                        fallbacks_in_row=self._count_fallback(plan))
+
     def _stop(self, state, records) -> Plan:
         """Nothing finite: the stop trajectory (v_max = 0), finite by construction.
 
@@ -329,10 +351,7 @@ class Planner:
             pose = np.array(state.pose, dtype=float)
             trajectory = Trajectory(z, np.tile(pose, (n_steps + 1, 1)), np.zeros(n_steps),
                                     np.zeros(n_steps), pose)
-        inf = np.full(1, math.inf)
-        survival = np.zeros((1, trajectory.poses.shape[0]))
-        cost = CostBreakdown(inf, {name: np.zeros(1) for name in TERM_NAMES}, survival,
-                             np.full(1, -math.inf), inf, np.zeros(1))[0]
+        cost = _unmeasured(trajectory)
         message = ("stopped: no start, solve or sample had a finite cost (or every stage "
                    "failed), so the robot brakes to a stop (v_max = 0); cost reported as inf")
         return Plan(z, math.inf, False, message, 0, trajectory,
@@ -346,13 +365,19 @@ class Planner:
 
 
 def _control(trajectory: Trajectory, config: PlannerConfig) -> tuple:
-    """First command of a trajectory, forced finite and inside the limits."""
-    robot = config.robot
-    v, omega = float(trajectory.v[0]), float(trajectory.omega[0])
-    if not (math.isfinite(v) and math.isfinite(omega)):
-        return (0.0, 0.0)
-    return (min(max(v, 0.0), robot.v_limit),
-            min(max(omega, -robot.omega_limit), robot.omega_limit))
+    """First command of a law's trajectory, forced finite and inside the limits (the law
+    never reverses)."""
+    v, omega = bounded_control(trajectory.v[0], trajectory.omega[0], config.robot)
+    return (max(v, 0.0), omega)
+
+
+def _unmeasured(trajectory: Trajectory) -> CostBreakdown:
+    """The breakdown of a plan whose cost could not be measured: total inf, terms 0,
+    survival 0 (a plan is never NaN)."""
+    inf = np.full(1, math.inf)
+    survival = np.zeros((1, trajectory.poses.shape[0]))
+    return CostBreakdown(inf, {name: np.zeros(1) for name in TERM_NAMES}, survival,
+                         np.full(1, -math.inf), inf, np.zeros(1))[0]
 
 
 def _replace(obj, **changes):

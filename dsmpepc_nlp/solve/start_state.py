@@ -1,13 +1,18 @@
-"""The start of a plan: the state as a caller may give it, and whether the robot's footprint
-already overlaps the map or an obstacle there (a plan from such a start says so)."""
+"""The start of a plan: the state as a caller may give it, whether the robot's footprint
+already overlaps the map or an obstacle there, and what a robot in collision does: it brakes as
+hard as its limits allow and moves no other way (the paper's Lemma 3)."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from ..core.config import PlannerConfig, RobotState
+from ..core.config import PlannerConfig, RobotConfig, RobotState
+from ..core.control_law import Trajectory, arc_step
 from ..core.errors import InputError
 from ..core.geometry import body_to_world
+from .starts import stop_z
 
 
 def as_state(state) -> RobotState:
@@ -53,4 +58,40 @@ def start_overlap(state: RobotState, world, config: PlannerConfig) -> str:
             f"{words} by {-worst:.3f} m")
 
 
-__all__ = ["as_state", "start_overlap"]
+def bounded_control(v: float, omega: float, robot: RobotConfig) -> tuple:
+    """``(v, omega)`` inside the robot's declared limits: ``v`` in ``[-reverse_limit,
+    v_limit]``, ``|omega| <= omega_limit``; a stop where either is not finite. Every plan's
+    control passes through it last."""
+    v, omega = float(v), float(omega)
+    if not (math.isfinite(v) and math.isfinite(omega)):
+        return (0.0, 0.0)
+    return (min(max(v, -robot.reverse_limit), robot.v_limit),
+            min(max(omega, -robot.omega_limit), robot.omega_limit))
+
+
+def _toward_zero(value: float, limit: float, dt: float) -> float:
+    """``value`` brought toward 0 by at most ``limit * dt`` (all the way with no limit)."""
+    step = limit * dt
+    return math.copysign(max(abs(value) - step, 0.0), value) if math.isfinite(step) else 0.0
+
+
+def braking(state: RobotState, config: PlannerConfig) -> Trajectory:
+    """The trajectory of a robot in collision (Lemma 3): from its measured ``(v, omega)``,
+    each step brought toward 0 as hard as ``accel_limit`` and ``alpha_limit`` allow, within
+    the limits of :func:`bounded_control`, then held at rest. It turns only while its turn
+    rate brakes, and neither speeds up nor reverses."""
+    robot, dt, n = config.robot, config.horizon.dt, config.horizon.n_steps
+    poses = np.empty((n + 1, 3))
+    poses[0] = state.pose
+    v, omega = np.zeros(n), np.zeros(n)
+    speed, turn = float(state.v), float(state.omega)
+    for k in range(n):
+        speed = _toward_zero(speed, robot.accel_limit, dt)
+        turn = _toward_zero(turn, robot.alpha_limit, dt)
+        speed, turn = bounded_control(speed, turn, robot)
+        v[k], omega[k] = speed, turn
+        poses[k + 1] = arc_step(poses[k], speed, turn, dt)
+    return Trajectory(stop_z(config), poses, v, omega, poses[-1].copy())
+
+
+__all__ = ["as_state", "bounded_control", "braking", "start_overlap"]
