@@ -119,27 +119,41 @@ def sources_hash(*modules: str) -> str:
     file sizes and modification times: while none of those files changes (a closure grows only
     through an edit of one of its files), a process reads the hash back in well under 1 ms.
     """
+    return _closure_memo(*modules)["hash"]
+
+
+def sources_stamp(*modules: str) -> str:
+    """A short hash of where :func:`source_closure`'s files are and of their sizes and
+    modification times: what numba keys its own cache index by (the source file's folder and
+    its stamp), so two checkouts, or two installs of one version, never read each other's
+    index as their own."""
+    return config_key(str(_PACKAGE), _closure_memo(*modules)["files"])
+
+
+def _closure_memo(*modules: str) -> dict:
+    """``{"hash": ..., "files": [[path, size, mtime_ns], ...]}`` of the closure of
+    ``modules``, read back from disk while no file of it changed."""
     # One memo per package folder: two checkouts sharing a cache must not read each other's.
     memo_path = cache_dir("sources") / (config_key(str(_PACKAGE), *modules) + ".json")
     try:
         memo = json.loads(memo_path.read_text())
         if all(Path(p).stat().st_size == size and Path(p).stat().st_mtime_ns == mtime
-               for p, size, mtime in memo["files"]):
-            return memo["hash"]
+               for p, size, mtime in memo["files"]) and isinstance(memo["hash"], str):
+            return memo
     except (OSError, ValueError, KeyError, TypeError):
         pass
     paths = source_closure(*modules)
     digest = hashlib.sha1()
     for path in paths:
         digest.update(str(path.relative_to(_PACKAGE)).encode() + b"\0" + path.read_bytes())
-    result = digest.hexdigest()[:16]
+    memo = {"hash": digest.hexdigest()[:16], "files": _signature(paths)}
     try:
         temporary = memo_path.with_name(memo_path.name + f".{os.getpid()}.tmp")
-        temporary.write_text(json.dumps({"hash": result, "files": _signature(paths)}))
+        temporary.write_text(json.dumps(memo))
         os.replace(temporary, memo_path)
     except OSError:
         pass
-    return result
+    return memo
 
 
 # --- a lock between processes that build the same artefact -------------------------------------
@@ -271,8 +285,10 @@ def clear() -> int:
 def numba_folder(module: str) -> Path:
     """The cache folder of the numba module ``module`` (dotted, in this package): keyed by its
     :func:`source_closure` (numba freezes imported constants, e.g. the parameter layout of
-    ``cycle.PARAMETERS``, into the compiled code) and numba's version; created and marked
-    used."""
+    ``cycle.PARAMETERS``, into the compiled code), numba's version and :func:`sources_stamp`
+    (numba's index is valid only for the source path and stamp it was written for: a folder
+    compiled from another checkout would look compiled and still compile in the first plan);
+    created and marked used."""
     from importlib import metadata
 
     try:
@@ -280,7 +296,8 @@ def numba_folder(module: str) -> Path:
     except metadata.PackageNotFoundError:
         numba_version = "none"
     short = module.rpartition(".")[2].strip("_")
-    path = cache_dir("numba") / f"{short}-{sources_hash(module)}-{numba_version}"
+    path = (cache_dir("numba")
+            / f"{short}-{sources_hash(module)}-{numba_version}-{sources_stamp(module)[:8]}")
     path.mkdir(parents=True, exist_ok=True)
     touch(path)
     return path

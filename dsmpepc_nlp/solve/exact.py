@@ -100,13 +100,18 @@ def preload() -> None:
 
 
 def _compile_then_load():
-    """The preload thread: a kernel not in the cache yet is compiled by a child process (numba's
-    compiler would hold Python's lock for ~20 s, stalling every plan of this process), then
-    loaded here (~0.6 s)."""
+    """The preload thread: a kernel not in the cache yet is compiled by a child process that
+    runs it once on every argument type (:func:`warm_up`; numba compiles on a first call, and
+    its compiler would hold Python's lock for ~10 s, stalling every plan of this process),
+    then loaded here (~0.6 s). The cache folder is this source's own (its path and stamp are
+    in the folder's name), so files there were written for this very source."""
     try:
         if not any(kernel_cache_dir().rglob("*.nbi")):
+            here = str(Path(__file__).resolve().parents[2])      # this copy, not another
+            path = os.pathsep.join([here] + [p for p in [os.environ.get("PYTHONPATH")] if p])
             subprocess.run([sys.executable, "-c", "from dsmpepc_nlp.solve import exact; "
-                            "exact.kernel()"], capture_output=True, timeout=600, check=False)
+                            "exact.warm_up()"], capture_output=True, timeout=600, check=False,
+                           env={**os.environ, "PYTHONPATH": path})
     except (OSError, subprocess.SubprocessError):
         pass
     kernel()
@@ -248,29 +253,51 @@ def inside_reach(z: np.ndarray, cycle) -> bool:
                                                   & (v_max <= cycle.config.robot.v_limit)))
 
 
+def _probe_worlds() -> list:
+    """Small worlds whose cycles give the kernel every argument type a plan gives it: with and
+    without a map, with and without objects."""
+    occupied = np.zeros((20, 20), dtype=bool)
+    occupied[:, 12] = True
+    grid = OccupancyGrid(occupied, 0.2, (-2.0, -2.0))
+    objects = [DynamicObstacle.pedestrian((1.5, 0.5), (-0.5, 0.0)),
+               DynamicObstacle.robot((0.0, 1.5, 0.0), (0.2, 0.0),
+                                     ((0.2, 0.0, 0.2), (-0.2, 0.0, 0.2)))]
+    return [World(grid, objects), World(None, objects), World(grid, ()), World(None, ())]
+
+
+def _run_once(module, configs) -> None:
+    """The kernel, parallel and serial, on every probe world with each of ``configs``."""
+    z = np.array([[1.0, 0.0, 0.0, 0.5], [2.0, 0.3, -0.3, 1.0]])
+    for config in configs:
+        for world in _probe_worlds():
+            cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0), world, (3.0, 0.0), config)
+            evaluate_compiled(z, cycle, module, parallel_rows=1)           # the parallel kernel
+            evaluate_compiled(z, cycle, module, parallel_rows=len(z) + 1)  # and the serial one
+
+
+def warm_up() -> bool:
+    """Run the kernel once on every argument type a plan gives it, so that its compiled code
+    is loaded (or, should numba's index not match, compiled) now, in a planner's
+    ``prepare``, and never in a plan. False on the numpy path."""
+    module = wait_for_kernel()
+    if module is None:
+        return False
+    _run_once(module, [PlannerConfig()])
+    return True
+
+
 def build_kernel() -> dict:
     """Compile (or load) the kernel and run it once per built-in configuration.
 
     One compiled kernel serves every configuration; running each variant (MPEPC, DS-MPEPC and
-    the two ablations) on a small map with a pedestrian and a robot checks that it loads and
+    the two ablations) on small maps with a pedestrian and a robot checks that it loads and
     runs for all of them. Returns ``compiled`` (False on the numpy path), ``seconds``,
     ``cache`` (the folder) and ``configurations``.
     """
     started = time.perf_counter()
     module = kernel()
-    occupied = np.zeros((20, 20), dtype=bool)
-    occupied[:, 12] = True
-    world = World(OccupancyGrid(occupied, 0.2, (-2.0, -2.0)),
-                  [DynamicObstacle.pedestrian((1.5, 0.5), (-0.5, 0.0)),
-                   DynamicObstacle.robot((0.0, 1.5, 0.0), (0.2, 0.0),
-                                         ((0.2, 0.0, 0.2), (-0.2, 0.0, 0.2)))])
-    z = np.array([[1.0, 0.0, 0.0, 0.5], [2.0, 0.3, -0.3, 1.0]])
-    for name in VARIANTS:
-        cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0), world, (3.0, 0.0),
-                              PlannerConfig.variant(name))
-        if module is not None:
-            evaluate_compiled(z, cycle, module, parallel_rows=1)       # the parallel kernel
-            evaluate_compiled(z, cycle, module, parallel_rows=len(z) + 1)  # and the serial one
+    if module is not None:
+        _run_once(module, [PlannerConfig.variant(name) for name in VARIANTS])
     return {"compiled": module is not None, "seconds": time.perf_counter() - started,
             "cache": str(kernel_cache_dir()) if module is not None else None,
             "configurations": list(VARIANTS)}

@@ -146,6 +146,12 @@ class NlpSolver:
             self._seen.add(problems.problem(self.config, sizes, self.solver_config))
         return time.perf_counter() - started
 
+    def warm_up(self) -> None:
+        """Load (or compile) now the compiled code a solve runs beyond the problem's library:
+        the fast method's Newton loop (numba), so that no plan compiles it."""
+        if self.solver_config.method == "newton" and self._seen:
+            solvers.warm_newton_loop(next(iter(self._seen)))
+
     def problem(self, cycle) -> problems.Problem:
         """The compiled problem for ``cycle`` (built or loaded on first use)."""
         started = time.perf_counter()

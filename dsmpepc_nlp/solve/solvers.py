@@ -59,7 +59,7 @@ def build_problems(variants=None, solver: SolverConfig | None = None, workers: i
     libraries, missing = compile_missing(wanted, solver, workers)
     built = [problem(config, sizes, solver) for config, sizes in wanted]
     if built and built[0].functions.compiled:
-        _warm_newton_loop(built[0])
+        warm_newton_loop(built[0])
     return {"compiled": all(p.functions.compiled for p in built),
             "seconds": time.perf_counter() - started, "problems": len(built),
             "libraries": libraries, "compiled_now": missing}
@@ -98,7 +98,7 @@ def _build_workers() -> int:
     return max(1, min(cores, int(memory // (1.5 * 2**30))))
 
 
-def _warm_newton_loop(problem: Problem) -> None:
+def warm_newton_loop(problem: Problem) -> None:
     """Compile (or load) the compiled Newton loop with one short solve on an empty world."""
     cycle = Cycle.prepare(RobotState(0.0, 0.0, 0.0), World(), np.array([5.0, 0.0]),
                           problem.config)
@@ -117,4 +117,4 @@ def make_solver(solver: SolverConfig):
                      "'newton'")
 
 
-__all__ = ["build_problems", "compile_missing", "make_solver"]
+__all__ = ["build_problems", "compile_missing", "make_solver", "warm_newton_loop"]
