@@ -200,7 +200,6 @@ def test_a_growing_bell_widens_with_the_look_ahead_and_is_off_by_default():
     """``sigma_dynamic_growth``: the moving objects' bell at a pose t seconds ahead is
     ``sigma_dynamic + growth * t`` wide; off (0) in the product and the paper preset, where the
     width is ``sigma_dynamic`` to the bit at every pose."""
-    import dataclasses
 
     from dsmpepc_nlp.core.costs import dynamic_sigma
 

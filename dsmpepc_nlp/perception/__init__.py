@@ -1,0 +1,18 @@
+"""The perception layer: what a robot senses, turned into what the planner reads; imports only
+:mod:`dsmpepc_nlp.core`.
+
+- :mod:`.tracker`: :class:`PeopleTracker` turns noisy people detections (:class:`Detections`,
+  :mod:`.detections`) into tracks (:class:`Track`) and the planner's ``DynamicObstacle``
+  pedestrians, with velocities from a constant-velocity Kalman filter (:mod:`.kalman`).
+- :mod:`.local_map`: :class:`LocalMap` turns 2D lidar scans (:class:`LaserScan`, :mod:`.scan`)
+  into a rolling occupancy window around the robot, handed to the planner as an
+  ``OccupancyGrid`` (configured by :class:`LocalMapConfig`); the cells each beam passes through
+  come from :mod:`.raycast` (numpy, or a numba kernel).
+"""
+
+from .local_map import LocalMap, LocalMapConfig
+from .scan import LaserScan
+from .tracker import Detections, PeopleTracker, Track, TrackerConfig
+
+__all__ = ["Detections", "LaserScan", "LocalMap", "LocalMapConfig", "PeopleTracker", "Track",
+           "TrackerConfig"]

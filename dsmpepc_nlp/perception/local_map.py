@@ -1,0 +1,392 @@
+"""A rolling local occupancy map built from 2D lidar scans, read by the planner as a grid.
+
+The window is a fixed square of cells centred on the sensor; it rolls with it in whole cells
+of a lattice anchored at the world origin (cell ``(gx, gy)`` is the square
+``[gx, gx + 1) x [gy, gy + 1) * resolution``), so memory is a fixed set of arrays, whatever
+the travel. Cells that scroll out are forgotten; cells that scroll in start unknown.
+
+Each cell is unknown, free or occupied. A scan first clears every cell each beam passes
+through, from the sensor to its hit (the hit cell left out), or to ``raytrace_max_range`` for
+a beam with no return, then marks the cell of every hit within ``obstacle_max_range``: mark
+after clear, as Nav2's obstacle layer does, so one beam's clearing never erases another beam's
+mark of the same scan. A later scan that sees through a marked cell clears it (a moved
+obstacle). With ``decay`` a mark not re-observed within that time is forgotten (unknown again).
+
+The prior (a static map) is merged under the observations as Nav2's layered costmap merges
+its static layer: by maximum. A prior-occupied cell reads occupied whatever the sensor says
+(clearing never removes it: a wrong static map is fixed in the map, not by the lidar); a
+prior-free cell reads as the observations say, and as free if never observed (the prior is
+knowledge: ``unknown`` applies only outside the prior's extent). What the sensor has seen
+(:meth:`LocalMap.known`, :meth:`LocalMap.seen_free`) is the sensor's alone.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.errors import RESOLUTION_RANGE, InputError, number_in, positive_number, shown
+from ..core.grid import OccupancyGrid
+from .raycast import cell_index, traverse, window_fraction
+from .scan import LaserScan
+
+UNKNOWN, FREE, OCCUPIED = 0, 1, 2
+"""A cell's state in :attr:`LocalMap._state` (int8)."""
+MAX_CELLS = 4096
+"""Most cells a side of the window (our choice: 16.8 M cells, ~34 MB of state)."""
+MAX_PRIOR_CELLS = 10**8
+"""Most cells of the prior resampled on the window's lattice (our choice: 100 MB)."""
+_UNKNOWN_POLICIES = ("free", "occupied")
+_EDGE_SLACK = 1e-6
+"""Overlaps thinner than this (cells) do not count: aligned maps round their edges."""
+
+
+@dataclass(frozen=True)
+class LocalMapConfig:
+    """How the local map is built; validated on construction.
+
+    Parameters
+    ----------
+    size : float
+        Side (m) of the square window. Default 20.0 (our choice: 10 m each way, more than a
+        planning horizon at walking speed). The window has ``round(size / resolution)`` cells
+        a side (:attr:`cells`), between 3 and :data:`MAX_CELLS`.
+    resolution : float
+        Cell side (m). Default 0.05 (Nav2's local costmap in its default parameters).
+    obstacle_max_range : float
+        Hits farther than this (m) are not marked. Default 25.0 (our choice: a 2D lidar's
+        range, beyond the window; Nav2 obstacle layer's default 2.5 m is for depth cameras).
+    raytrace_max_range : float
+        Beams clear up to this distance (m), also beams with no return (``+inf``). Default
+        30.0 (our choice, beyond the window; Nav2's default 3.0 m is for depth cameras).
+    unknown : {"free", "occupied"}
+        How cells never observed (and outside the prior) reach the planner. Default "free":
+        the BARN probe showed that works.
+    decay : float or None
+        A mark not re-observed within this time (s) is forgotten. Default None: marks stay
+        until a beam clears them, as in Nav2's obstacle layer.
+    """
+
+    size: float = 20.0
+    resolution: float = 0.05
+    obstacle_max_range: float = 25.0
+    raytrace_max_range: float = 30.0
+    unknown: str = "free"
+    decay: float | None = None
+
+    def __post_init__(self):
+        put = object.__setattr__  # frozen: the checked values are set once, here
+        put(self, "size", positive_number("size", self.size))
+        put(self, "resolution", number_in("resolution", self.resolution, *RESOLUTION_RANGE))
+        for name in ("obstacle_max_range", "raytrace_max_range"):
+            put(self, name, positive_number(name, getattr(self, name)))
+        if self.unknown not in _UNKNOWN_POLICIES:
+            raise InputError(f"unknown={shown(self.unknown)}: expected one of "
+                             f"{', '.join(map(repr, _UNKNOWN_POLICIES))}")
+        if self.decay is not None:
+            put(self, "decay", positive_number("decay", self.decay))
+        cells = self.size / self.resolution
+        if not 3 <= round(cells) <= MAX_CELLS:
+            raise InputError(f"size={shown(self.size)}: expected between 3 and {MAX_CELLS} "
+                             f"cells of resolution={self.resolution:g} m a side, got {cells:g}")
+
+    @property
+    def cells(self) -> int:
+        """Cells a side of the window."""
+        return int(round(self.size / self.resolution))
+
+
+def _shift(arr, shift, fill) -> None:
+    """Scroll ``arr`` (ny, nx) in place by whole cells: ``new[j, i] = old[j + sy, i + sx]``;
+    cells from outside get ``fill``."""
+    sx, sy = int(shift[0]), int(shift[1])
+    ny, nx = arr.shape
+    if abs(sx) >= nx or abs(sy) >= ny:
+        arr.fill(fill)
+        return
+    src_y, dst_y = slice(max(sy, 0), ny + min(sy, 0)), slice(max(-sy, 0), ny + min(-sy, 0))
+    src_x, dst_x = slice(max(sx, 0), nx + min(sx, 0)), slice(max(-sx, 0), nx + min(-sx, 0))
+    arr[dst_y, dst_x] = arr[src_y, src_x]  # numpy copies through a buffer where they overlap
+    if sy:
+        arr[slice(ny - sy, None) if sy > 0 else slice(None, -sy)] = fill
+    if sx:
+        arr[:, slice(nx - sx, None) if sx > 0 else slice(None, -sx)] = fill
+
+
+class LocalMap:
+    """The rolling window of what the lidar has seen around the robot (see the module).
+
+    Parameters
+    ----------
+    config : LocalMapConfig, optional
+        Defaults to ``LocalMapConfig()``.
+    prior : OccupancyGrid, optional
+        A static map merged under the observations (see the module for the policy). Any
+        resolution and origin: a window cell is prior-occupied when it overlaps an occupied
+        prior cell, and inside the prior's extent when it overlaps the prior at all.
+
+    Notes
+    -----
+    Before the first update the window is centred on the world origin, every cell unknown.
+    """
+
+    def __init__(self, config=None, prior=None):
+        config = LocalMapConfig() if config is None else config
+        if not isinstance(config, LocalMapConfig):
+            raise InputError(f"config={shown(config)}: expected a LocalMapConfig or None")
+        if prior is not None and not isinstance(prior, OccupancyGrid):
+            raise InputError(f"prior={shown(prior)}: expected an OccupancyGrid or None")
+        self._config = config
+        n = config.cells
+        self._state = np.zeros((n, n), dtype=np.int8)
+        self._seen_free = np.zeros((n, n), dtype=bool)
+        self._mark_time = None if config.decay is None else np.full((n, n), -np.inf)
+        self._corner = self._corner_for((0.0, 0.0))
+        self._stamp = None
+        self._version = 0
+        self._prior = None if prior is None else prior_on_lattice(prior, config.resolution)
+        self._prior_cache = None    # (corner, occupied, covered) of the window's prior
+        self._served = None         # (version, corner, grid) of the last grid()
+
+    # -- the window --------------------------------------------------------------------------
+
+    @property
+    def config(self) -> LocalMapConfig:
+        """The configuration."""
+        return self._config
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(ny, nx) of the window: ``(config.cells, config.cells)``, always."""
+        return self._state.shape
+
+    @property
+    def origin(self) -> np.ndarray:
+        """World (x, y) (m) of the lower-left corner of the window's cell [0, 0]."""
+        return self._corner * self._config.resolution
+
+    @property
+    def stamp(self) -> float | None:
+        """Stamp (s) of the last update, None before the first."""
+        return self._stamp
+
+    def _corner_for(self, xy) -> np.ndarray:
+        """Lattice index (gx, gy) of cell [0, 0] of the window centred on ``xy``."""
+        cell = np.floor(np.asarray(xy, dtype=float) / self._config.resolution)
+        return cell.astype(np.int64) - self._config.cells // 2
+
+    def _roll_to(self, xy) -> None:
+        corner = self._corner_for(xy)
+        shift = corner - self._corner
+        if not shift.any():
+            return
+        _shift(self._state, shift, UNKNOWN)
+        _shift(self._seen_free, shift, False)
+        if self._mark_time is not None:
+            _shift(self._mark_time, shift, -np.inf)
+        self._corner = corner
+
+    # -- updating ----------------------------------------------------------------------------
+
+    def update(self, scan: LaserScan) -> dict:
+        """Roll the window to the sensor, forget stale marks, clear along the beams, mark hits.
+
+        Parameters
+        ----------
+        scan : LaserScan
+            Not earlier than the previous update's (equal stamps are accepted).
+
+        Returns
+        -------
+        dict of str to int
+            ``beams``, ``used``, the counts of :meth:`LaserScan.validity` (``hits``,
+            ``no_return`` and the drops by reason), ``beyond_obstacle_range`` and
+            ``outside_window`` (hits not marked), and the distinct cells ``cells_marked``,
+            ``cells_cleared`` (set free, not marked by the same scan) and ``cells_forgotten``
+            (by decay).
+
+        Raises
+        ------
+        InputError
+            ``scan`` not a LaserScan; ``stamp`` earlier than the previous update's.
+        """
+        if not isinstance(scan, LaserScan):
+            raise InputError(f"scan={shown(scan)}: expected a LaserScan")
+        if self._stamp is not None and scan.stamp < self._stamp:
+            raise InputError(f"stamp={shown(scan.stamp)}: expected >= {self._stamp!r}, the "
+                             "previous update's stamp (s)")
+        valid, validity = scan.validity()
+        counts = {"beams": scan.size, "used": int(np.count_nonzero(valid)), **validity}
+        self._roll_to(scan.pose[:2])
+        counts["cells_forgotten"] = self._decay(scan.stamp)
+        marks, clear = self._observe(scan, valid, counts)
+        state = self._state.reshape(-1)
+        clear[marks] = False
+        np.copyto(state, FREE, where=clear)
+        self._seen_free.reshape(-1)[clear] = True
+        state[marks] = OCCUPIED
+        if self._mark_time is not None:
+            self._mark_time.reshape(-1)[marks] = scan.stamp
+        counts["cells_marked"] = int(marks.size)
+        counts["cells_cleared"] = int(np.count_nonzero(clear))
+        self._stamp = scan.stamp
+        self._version += 1
+        return counts
+
+    def _decay(self, stamp) -> int:
+        if self._mark_time is None:
+            return 0
+        stale = (self._state == OCCUPIED) & (stamp - self._mark_time > self._config.decay)
+        np.copyto(self._state, UNKNOWN, where=stale)
+        return int(np.count_nonzero(stale))
+
+    def _observe(self, scan, valid, counts):
+        """The linear indices of the cells marked (distinct) and the mask of cells cleared."""
+        cfg, n = self._config, self._config.cells
+        u0, v0 = (scan.pose[:2] - self.origin) / cfg.resolution
+        angle = scan.pose[2] + scan.beam_angles()[valid]
+        r = scan.ranges[valid]
+        cos, sin = np.cos(angle), np.sin(angle)
+        no_return = np.isposinf(r)
+        reach = np.where(no_return, cfg.raytrace_max_range,
+                         np.minimum(r, cfg.raytrace_max_range)) / cfg.resolution
+        du, dv = cos * reach, sin * reach
+        t = window_fraction(u0, v0, du, dv, n)
+        u1, v1 = u0 + t * du, v0 + t * dv
+        # Where the beam ends at its hit (t == 1: not cut by the window or the clearing range),
+        # the end is the hit, computed alike: u0 + cos * (r / resolution).
+        ends_at_hit = ~no_return & (r <= cfg.raytrace_max_range) & (t >= 1.0)
+        exclude = np.where(ends_at_hit, cell_index(u1, v1, n), -1)
+        clear = traverse(u0, v0, u1, v1, exclude, n)
+        hit = ~no_return & (r <= cfg.obstacle_max_range)
+        scaled = r[hit] / cfg.resolution
+        cells = cell_index(u0 + cos[hit] * scaled, v0 + sin[hit] * scaled, n)
+        counts["beyond_obstacle_range"] = int(np.count_nonzero(~no_return & ~hit))
+        counts["outside_window"] = int(np.count_nonzero(cells < 0))
+        return np.unique(cells[cells >= 0]), clear
+
+    # -- reading -----------------------------------------------------------------------------
+
+    def _prior_arrays(self):
+        """(occupied, covered) of the prior over the window, or None without a prior."""
+        if self._prior is None:
+            return None
+        cache = self._prior_cache
+        if cache is None or not np.array_equal(cache[0], self._corner):
+            cache = (self._corner.copy(), *prior_window(self._prior, self._corner,
+                                                         self._config.cells))
+            self._prior_cache = cache
+        return cache[1], cache[2]
+
+    def _occupancy(self) -> np.ndarray:
+        """What :meth:`grid` hands out: marks, unknown per the policy, and the prior."""
+        occupied = self._state == OCCUPIED
+        prior = self._prior_arrays()
+        if self._config.unknown == "occupied":
+            unseen = self._state == UNKNOWN
+            occupied |= unseen if prior is None else unseen & ~prior[1]
+        if prior is not None:
+            occupied |= prior[0]
+        return occupied
+
+    def grid(self) -> OccupancyGrid:
+        """The window as the planner's grid: ``occupied[iy, ix]``, origin :attr:`origin`.
+
+        The same object as the last call's when nothing it shows has changed (no update, or
+        updates that changed no cell it hands out and did not roll the window).
+        """
+        served = self._served
+        if served is not None and served[0] == self._version:
+            return served[2]
+        occupied = self._occupancy()
+        if (served is not None and np.array_equal(served[1], self._corner)
+                and np.array_equal(served[2].occupied, occupied)):
+            grid = served[2]
+        else:
+            grid = OccupancyGrid.derived(occupied, self._config.resolution, self.origin)
+        self._served = (self._version, self._corner.copy(), grid)
+        return grid
+
+    def changed_cells(self) -> np.ndarray:
+        """Cells of the window whose :meth:`grid` value differs from the last ``grid()``'s at
+        the same world position, bool (ny, nx); cells that scrolled in since count as changed,
+        and all are changed before the first ``grid()``. Compare ``grid().origin`` for the
+        window's move; ``np.argwhere`` gives the ``[iy, ix]`` indices."""
+        current = self._occupancy()
+        if self._served is None:
+            return np.ones_like(current)
+        shift = self._corner - self._served[1]
+        before = self._served[2].occupied.copy()
+        seen_before = np.ones_like(current)
+        _shift(before, shift, False)
+        _shift(seen_before, shift, False)
+        return ~seen_before | (current != before)
+
+    def known(self) -> np.ndarray:
+        """Cells the sensor has observed (free or occupied) and still remembers, bool (ny, nx)."""
+        return self._state != UNKNOWN
+
+    def seen_free(self) -> np.ndarray:
+        """Cells a beam has passed through since they entered the window, bool (ny, nx); stays
+        True when the cell is marked later."""
+        return self._seen_free.copy()
+
+    def is_seen_free(self, points) -> np.ndarray:
+        """:meth:`seen_free` at world points (..., 2) -> bool (...); False outside the window."""
+        pts = np.asarray(points, dtype=float)
+        if pts.ndim < 1 or pts.shape[-1] != 2 or not np.all(np.isfinite(pts)):
+            raise InputError(f"points={shown(points)}: expected finite world positions (m) of "
+                             "shape (..., 2)")
+        cells = np.floor((pts - self.origin) / self._config.resolution)
+        n = self._config.cells
+        inside = np.all((cells >= 0) & (cells < n), axis=-1)
+        result = np.zeros(pts.shape[:-1], dtype=bool)
+        index = cells[inside].astype(np.intp)
+        result[inside] = self._seen_free[index[:, 1], index[:, 0]]
+        return result
+
+
+def prior_on_lattice(prior, resolution):
+    """The prior resampled on the window's lattice: ``(occupied, start)``.
+
+    ``occupied[j, i]`` is lattice cell ``start + (i, j)``: True when it overlaps an occupied
+    prior cell (by more than a sliver), so a finer prior's thin wall is kept. The array spans
+    every lattice cell that overlaps the prior: the prior's extent.
+    """
+    (ny, nx), step = prior.shape, prior.resolution
+    spans = []
+    for origin, cells in zip((float(c) for c in prior.origin), (nx, ny)):
+        first = math.floor(origin / resolution + _EDGE_SLACK)
+        end = math.ceil((origin + cells * step) / resolution - _EDGE_SLACK)
+        edges = (np.arange(first, end + 1) * resolution - origin) / step
+        low = np.clip(np.floor(edges[:-1] + _EDGE_SLACK), 0, cells).astype(np.intp)
+        high = np.clip(np.ceil(edges[1:] - _EDGE_SLACK), 0, cells).astype(np.intp)
+        spans.append((first, low, np.maximum(high, low)))
+    (gx, x_low, x_high), (gy, y_low, y_high) = spans
+    if x_low.size * y_low.size > MAX_PRIOR_CELLS:
+        raise InputError(f"prior={shown(prior)}: expected at most {MAX_PRIOR_CELLS} cells of "
+                         f"resolution={resolution:g} m over its extent")
+    total = np.zeros((ny + 1, nx + 1), dtype=np.int32 if ny * nx < 2**31 else np.int64)
+    np.cumsum(np.cumsum(prior.occupied, axis=0, dtype=total.dtype), axis=1, out=total[1:, 1:])
+    count = (total[np.ix_(y_high, x_high)] - total[np.ix_(y_low, x_high)]
+             - total[np.ix_(y_high, x_low)] + total[np.ix_(y_low, x_low)])
+    return count > 0, np.array([gx, gy], dtype=np.int64)
+
+
+def prior_window(lattice, corner, n):
+    """``(occupied, covered)`` (n, n) of the prior on the window whose cell [0, 0] is lattice
+    cell ``corner``; ``covered``: inside the prior's extent."""
+    occupied_lattice, start = lattice
+    occupied = np.zeros((n, n), dtype=bool)
+    covered = np.zeros((n, n), dtype=bool)
+    size = np.array(occupied_lattice.shape[::-1])
+    low, high = np.maximum(corner, start), np.minimum(corner + n, start + size)
+    if np.all(high > low):
+        window = (slice(low[1] - corner[1], high[1] - corner[1]),
+                  slice(low[0] - corner[0], high[0] - corner[0]))
+        occupied[window] = occupied_lattice[low[1] - start[1]:high[1] - start[1],
+                                            low[0] - start[0]:high[0] - start[0]]
+        covered[window] = True
+    return occupied, covered
