@@ -24,8 +24,8 @@ from .core.solver_config import (
     SolverConfig,
 )
 from .core.world import DynamicObstacle, NavigationFunction, OccupancyGrid, World
+from .solve.plan import StartRecord
 from .solve.planner import Plan, Planner
-from .solve.records import StartRecord
 
 __all__ = [
     "BoundsConfig", "ControlLawConfig", "CostBreakdown", "CostConfig", "DockingConfig",

@@ -33,7 +33,7 @@ from .sim.metrics import episode_metrics
 from .sim.panels import cost_panels
 from .sim.scenario import builtin_names, load_scenario
 from .sim.simulate import simulate
-from .solve.exact import build_kernel
+from .solve.exact.loader import build_kernel
 from .viz import figures
 
 DEFAULT_SAMPLE_CYCLES = 5
@@ -270,7 +270,7 @@ BENCH_EPILOG = """table columns (docs/glossary.md):
 
 
 def cmd_cache(args) -> int:
-    from .solve import cache
+    from .core import compile_cache as cache
 
     if args.action == "clear":
         freed = cache.clear()
@@ -304,7 +304,7 @@ def cmd_build(args) -> int:
     nlp = {}
     worker = None
     if getattr(args, "nlp", False):     # the C compiles run in child processes meanwhile
-        from .solve.solvers import build_problems
+        from .solve.optimize.solvers import build_problems
 
         robots = {a.robot for name in builtin_names() if args.scenario_robots
                   for a in load_scenario(name).agents if a.robot is not None}

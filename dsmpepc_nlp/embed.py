@@ -1,6 +1,6 @@
 """What a CasADi user needs to put the DS-MPEPC cost into their own problem, in one place.
 
-Re-exported from :mod:`dsmpepc_nlp.solve.graph` and :mod:`dsmpepc_nlp.solve.cycle`;
+Re-exported from :mod:`dsmpepc_nlp.solve.problem` and :mod:`dsmpepc_nlp.solve.exact.cycle`;
 ``examples/embed_in_opti.py`` is a complete example (its own world, ``casadi.Opti``, an extra
 constraint, the exact cost at the solution).
 
@@ -25,8 +25,8 @@ The parameter blocks, in the order of :data:`PARAMETER_NAMES`, shaped by
 from __future__ import annotations
 
 from .core.grid import FAR
-from .solve.cycle import Cycle
-from .solve.graph import (
+from .solve.exact.cycle import Cycle
+from .solve.problem import (
     FRAME_COLUMNS,
     PARAMETER_NAMES,
     GraphSizes,
@@ -36,7 +36,7 @@ from .solve.graph import (
     pack_parameters,
     parameter_shapes,
 )
-from .solve.settings import names as settings_names
+from .solve.problem.parameters import names as settings_names
 
 _TABLE = ("values at cell centres, flattened x-fastest (entry ``iy * table_cells + ix`` is "
           "column ix, row iy of the window, row 0 the lowest y); cells past the frame's valid "

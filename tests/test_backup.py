@@ -1,5 +1,5 @@
-"""The stall ladder's back-up rung (solve/backup.py): reverse trajectories within the robot's
-limits, costed by the exact cost, taken only over a plan that stands, once stalled (the
+"""The stall ladder's back-up rung (solve/behaviours/backup.py): reverse trajectories within the
+robot's limits, costed by the exact cost, taken only over a plan that stands, once stalled (the
 ladder's ``back_up_level``) or where the robot expects to be struck (``back_up_threat``), and
 only when cheaper; and its forward dodges, over a plan the robot expects to be struck on."""
 
@@ -10,14 +10,15 @@ import numpy as np
 import pytest
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState, StallConfig
-from dsmpepc_nlp.core.control_law import rollout
+from dsmpepc_nlp.core.control_law import Trajectory, rollout
 from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.exact_cost import evaluate, exact_geometry
 from dsmpepc_nlp.core.grid import OccupancyGrid
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, World
-from dsmpepc_nlp.solve import backup, docking
-from dsmpepc_nlp.solve.cycle import Cycle
+from dsmpepc_nlp.solve.behaviours import backup, docking, judge
+from dsmpepc_nlp.solve.behaviours import ways as moves
+from dsmpepc_nlp.solve.exact.cycle import Cycle
 from dsmpepc_nlp.solve.planner import Planner
 
 ON = PlannerConfig(stall=StallConfig(back_up=0.3))
@@ -33,7 +34,7 @@ def person_just_ahead(gap=0.05):
 def test_the_back_ups_reverse_within_the_robots_limits_and_then_brake():
     state = RobotState(0.0, 0.0, 0.0, 0.2, 0.5)      # still rolling forward and turning
     config = PlannerConfig(stall=StallConfig(back_up=2.0, back_up_time=1.0))
-    t = backup.back_up_trajectories(state, config)
+    t = moves.back_up_trajectories(state, config)
     robot, dt = config.robot, config.horizon.dt
     assert t.poses.shape == (3, config.horizon.n_steps + 1, 3)
     assert np.all(t.poses[:, 0] == [0.0, 0.0, 0.0])
@@ -50,8 +51,8 @@ def test_the_back_ups_reverse_within_the_robots_limits_and_then_brake():
 
 def test_a_measured_state_outside_the_limits_still_gives_commands_inside_them():
     state = RobotState(0.0, 0.0, 0.0, -1.77, -2.5)    # measured: faster back than allowed
-    t = backup.back_up_trajectories(state, ON)
-    assert np.all(t.v >= -backup.back_up_speed(ON)) and np.all(t.v <= ON.robot.v_limit)
+    t = moves.back_up_trajectories(state, ON)
+    assert np.all(t.v >= -moves.back_up_speed(ON)) and np.all(t.v <= ON.robot.v_limit)
     assert np.all(np.abs(t.omega) <= ON.robot.omega_limit)
 
 
@@ -59,7 +60,7 @@ def test_backing_toward_a_wall_sees_the_wall_in_its_time_to_collision():
     occupied = np.zeros((40, 40), dtype=bool)
     occupied[:, :7] = True                           # a wall at x < -0.65
     world = World(OccupancyGrid(occupied, 0.05, origin=(-1.0, -1.0)))
-    back = backup.back_up_trajectories(RobotState(0.0, 0.0, 0.0), ON)[0:1]
+    back = moves.back_up_trajectories(RobotState(0.0, 0.0, 0.0), ON)[0:1]
     # the same path driven forward: facing the wall (heading + pi), speed +|v|
     forward = dataclasses.replace(back, poses=back.poses + [0.0, 0.0, np.pi], v=-back.v)
     reversing = exact_geometry(back, world, GOAL, ON)
@@ -115,7 +116,7 @@ def test_a_person_walking_at_a_standing_robot_makes_it_back_up_at_once_with_the_
 def test_the_dodges_turn_hard_then_go_ahead_forward_within_the_limits():
     state = RobotState(0.0, 0.0, 0.0, 0.4, -0.5)
     config = PlannerConfig()
-    t = backup.dodge_trajectories(state, config)
+    t = moves.dodge_trajectories(state, config)
     robot, dt = config.robot, config.horizon.dt
     assert t.poses.shape == (96, config.horizon.n_steps + 1, 3)
     assert np.all(t.poses[:, 0] == [0.0, 0.0, 0.0])
@@ -164,8 +165,8 @@ def test_the_dodges_answer_only_a_blow_expected_within_dodge_within(monkeypatch)
     kept = Planner(rung_off, solver).plan(state, head_on, GOAL)      # the law's own plan
     assert backup.threatened(kept, on) and not backup.threatened(kept, on, 1.0)
     built = []
-    original = backup.dodge_trajectories
-    monkeypatch.setattr(backup, "dodge_trajectories",
+    original = moves.dodge_trajectories
+    monkeypatch.setattr(moves, "dodge_trajectories",
                         lambda *a: built.append(1) or original(*a))
     for config, expected in ((on, 1), (soon, 0)):
         built.clear()
@@ -263,9 +264,9 @@ def test_the_turns_stay_within_the_limits_and_end_near_the_line_to_their_target(
     state = RobotState(0.0, 0.0, 0.0, 0.3, 0.4)
     config = PlannerConfig()
     plan = Planner(config, SolverConfig.sampling(n_samples=64)).plan(state, World(), (-4.0, 1.0))
-    t = backup.turn_trajectories(plan, state, (-4.0, 1.0), config)
+    t = moves.turn_trajectories(plan, state, (-4.0, 1.0), config)
     robot, dt = config.robot, config.horizon.dt
-    assert t.poses.shape == (2 + 2 * (backup.DODGE_TURN_STEPS - 1), config.horizon.n_steps + 1, 3)
+    assert t.poses.shape == (2 + 2 * (moves.DODGE_TURN_STEPS - 1), config.horizon.n_steps + 1, 3)
     assert np.min(t.v) >= 0.0 and np.max(t.v) <= robot.v_limit + 1e-12
     assert np.max(np.abs(t.omega)) <= robot.omega_limit + 1e-12
     v = np.concatenate([np.full((len(t.v), 1), 0.3), t.v], axis=1)
@@ -278,7 +279,7 @@ def test_the_turns_stay_within_the_limits_and_end_near_the_line_to_their_target(
         x, y, phi = t.poses[i, turned[i]]
         away = abs(math.remainder(math.atan2(aim[1] - y, aim[0] - x) - phi, 2 * math.pi))
         assert away <= config.stall.turn_to_goal + 0.3     # within a step's turn of the limit
-    steps = backup.DODGE_TURN_STEPS - 1                      # then 1..7 periods either way
+    steps = moves.DODGE_TURN_STEPS - 1                      # then 1..7 periods either way
     for first, sign in ((2, 1.0), (2 + steps, -1.0)):
         ends = [t.poses[first + k - 1, k, 2] for k in range(1, steps + 1)]
         assert np.all(sign * np.diff(np.unwrap(ends)) > 0)     # each turns further in place
@@ -345,11 +346,11 @@ def test_past_the_horizon_every_trajectory_docks_from_where_it_ends():
     long enough, each ends nearer the goal, and at it when it faced it."""
     plan, state, cycle = judged_case()
     config = cycle.config
-    assert backup.lengthened(config, 2.5).horizon.n_steps == config.horizon.n_steps + 13
-    assert backup.lengthened(config, 2.4).horizon.n_steps == config.horizon.n_steps + 12
-    turns = backup.turn_trajectories(plan, state, cycle.goal, config)
-    longer = backup.lengthened(config, 10.0)
-    carried = backup.docked_beyond(turns, cycle.goal, config, longer)
+    assert judge.lengthened(config, 2.5).horizon.n_steps == config.horizon.n_steps + 13
+    assert judge.lengthened(config, 2.4).horizon.n_steps == config.horizon.n_steps + 12
+    turns = moves.turn_trajectories(plan, state, cycle.goal, config)
+    longer = judge.lengthened(config, 10.0)
+    carried = judge.docked_beyond(turns, cycle.goal, config, longer)
     n, robot, dt = config.horizon.n_steps, config.robot, config.horizon.dt
     assert carried.poses.shape == (len(turns.z), longer.horizon.n_steps + 1, 3)
     np.testing.assert_array_equal(carried.poses[:, :n + 1], turns.poses)
@@ -378,13 +379,13 @@ def test_a_turn_judged_further_is_taken_only_when_cheaper_over_the_longer_horizo
     cheaper over the longer horizon: driving at the goal (``heading`` 0.17, 0.5 m/s), the
     plan goes straight on and no turn is taken."""
     plan, state, cycle = judged_case(beyond=beyond, heading=heading, speed=speed)
-    longer = backup.lengthened(cycle.config, beyond)
-    turns = backup.turn_trajectories(plan, state, cycle.goal, cycle.config)
-    costs = evaluate(backup.docked_beyond(turns, cycle.goal, cycle.config, longer), cycle.world,
+    longer = judge.lengthened(cycle.config, beyond)
+    turns = moves.turn_trajectories(plan, state, cycle.goal, cycle.config)
+    costs = evaluate(judge.docked_beyond(turns, cycle.goal, cycle.config, longer), cycle.world,
                      cycle.goal, longer).total
-    carried = backup.docked_beyond(plan.trajectory[None], cycle.goal, cycle.config, longer)
+    carried = judge.docked_beyond(plan.trajectory[None], cycle.goal, cycle.config, longer)
     own = evaluate(carried, cycle.world, cycle.goal, longer).total[0]
-    judged = backup.judge_turns(plan, state, cycle)
+    judged = judge.judge_turns(plan, state, cycle)
     n = cycle.config.horizon.n_steps
     assert (judged is not None) == turned
     if judged is None:
@@ -408,7 +409,7 @@ def test_with_the_turns_judged_further_consider_never_judges_them_over_the_horiz
     top = StallConfig().judge_level
     for beyond in (0.2, 2.5):
         plan, state, cycle = judged_case(level=top, beyond=beyond)
-        judged = backup.judge_turns(plan, state, cycle)
+        judged = judge.judge_turns(plan, state, cycle)
         chosen = backup.consider(plan, state, cycle, level=top)
         if judged is None:
             assert chosen is None or chosen.status != "turning"
@@ -442,12 +443,12 @@ def test_the_arrival_estimate_is_the_first_step_near_the_goal_else_a_straight_wa
     config = PlannerConfig()
     n, dt = config.horizon.n_steps, config.horizon.dt
     t = np.arange(n + 1) * dt
-    run = backup.Trajectory(np.zeros((2, 4)), np.stack([np.stack([t, 0 * t, 0 * t], 1)] * 2),
+    run = Trajectory(np.zeros((2, 4)), np.stack([np.stack([t, 0 * t, 0 * t], 1)] * 2),
                             np.ones((2, n)), np.zeros((2, n)), np.zeros((2, 3)))
-    assert backup.arrival_estimate(run, (3.0, 0.0), 0.3, config) == pytest.approx([2.8, 2.8])
-    assert backup.arrival_estimate(run, (10.0, 0.0), 0.3, config) == pytest.approx([10.0, 10.0])
+    assert judge.arrival_estimate(run, (3.0, 0.0), 0.3, config) == pytest.approx([2.8, 2.8])
+    assert judge.arrival_estimate(run, (10.0, 0.0), 0.3, config) == pytest.approx([10.0, 10.0])
     slow = dataclasses.replace(config, robot=dataclasses.replace(config.robot, v_limit=0.5))
-    assert backup.arrival_estimate(run, (10.0, 0.0), 0.3, slow)[0] == pytest.approx(15.0)
+    assert judge.arrival_estimate(run, (10.0, 0.0), 0.3, slow)[0] == pytest.approx(15.0)
 
 
 @pytest.mark.parametrize("order", ["plan-first", "as-estimated", "one-turn-sooner"])
@@ -460,14 +461,14 @@ def test_judged_sooner_a_turn_must_also_arrive_before_the_plan(monkeypatch, orde
     config = dataclasses.replace(cycle.config, stall=dataclasses.replace(
         cycle.config.stall, judge_sooner=True))
     cycle = Cycle.prepare(state, cycle.world, cycle.goal, config)
-    longer = backup.lengthened(config, 2.5)
-    turns = backup.turn_trajectories(plan, state, cycle.goal, config)
-    costs = evaluate(backup.docked_beyond(turns, cycle.goal, config, longer), cycle.world,
+    longer = judge.lengthened(config, 2.5)
+    turns = moves.turn_trajectories(plan, state, cycle.goal, config)
+    costs = evaluate(judge.docked_beyond(turns, cycle.goal, config, longer), cycle.world,
                      cycle.goal, longer).total
-    own = evaluate(backup.docked_beyond(plan.trajectory[None], cycle.goal, config, longer),
+    own = evaluate(judge.docked_beyond(plan.trajectory[None], cycle.goal, config, longer),
                    cycle.world, cycle.goal, longer).total[0]
     assert np.nanmin(costs) < own            # without the estimate, a turn would be taken
-    estimate = backup.arrival_estimate
+    estimate = judge.arrival_estimate
 
     def arrivals(carried, goal, radius, config):
         found = estimate(carried, goal, radius, config)
@@ -477,12 +478,12 @@ def test_judged_sooner_a_turn_must_also_arrive_before_the_plan(monkeypatch, orde
             return np.r_[1.0, np.where(np.arange(len(found) - 1) == np.nanargmax(costs),
                                        0.0, 2.0)]
         return found
-    monkeypatch.setattr(backup, "arrival_estimate", arrivals)
-    judged = backup.judge_turns(plan, state, cycle, goal_tolerance=0.3)
+    monkeypatch.setattr(judge, "arrival_estimate", arrivals)
+    judged = judge.judge_turns(plan, state, cycle, goal_tolerance=0.3)
     if order == "plan-first":
         assert judged is None
         return
-    sooner = backup.judged(plan, state, cycle, goal_tolerance=0.3)[2]     # as patched
+    sooner = judge.judged(plan, state, cycle, goal_tolerance=0.3)[2]     # as patched
     allowed = np.where(sooner[1:] < sooner[0], costs, np.inf)
     if not np.min(allowed) < own:
         assert judged is None and order == "one-turn-sooner"

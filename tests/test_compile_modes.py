@@ -11,10 +11,11 @@ from dsmpepc_nlp.core.config import PlannerConfig, RobotConfig, RobotState
 from dsmpepc_nlp.core.cost_config import CostConfig, SmoothingConfig
 from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.world import OccupancyGrid, World
-from dsmpepc_nlp.solve import background, compiled, settings
-from dsmpepc_nlp.solve import graph as g
-from dsmpepc_nlp.solve.cycle import Cycle
+from dsmpepc_nlp.solve import problem as g
+from dsmpepc_nlp.solve.build import background, compiled
+from dsmpepc_nlp.solve.exact.cycle import Cycle
 from dsmpepc_nlp.solve.planner import Planner
+from dsmpepc_nlp.solve.problem import parameters as settings
 
 needs_compiler = pytest.mark.skipif(not compiled.compiling_possible(),
                                     reason="no C compiler (or compilation off)")
@@ -59,7 +60,7 @@ def test_a_failed_background_compile_is_retried_then_left_to_the_planner(tmp_pat
     the library is ready to be built by the planner itself, with one warning; one child runs
     at a time."""
     from dsmpepc_nlp.core.solver_config import SolverConfig
-    from dsmpepc_nlp.solve import problem
+    from dsmpepc_nlp.solve.build import library as problem
 
     monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))           # nothing is cached
     monkeypatch.setattr(problem, "_BUILT", set())                     # nor built by a test
@@ -125,7 +126,7 @@ def test_static_uncertainty_from_the_map():
     world = World(_grid(0.05))
     cycle = Cycle.prepare(RobotState(1.0, 1.0, 0.0), world, (1.5, 1.0), on)
     assert cycle.config.cost.sigma_static == pytest.approx(expected, rel=1e-15)
-    from dsmpepc_nlp.solve.cycle import PARAMETERS
+    from dsmpepc_nlp.solve.exact.cycle import PARAMETERS
 
     assert cycle.parameters[PARAMETERS.index("sigma_static")] == cycle.config.cost.sigma_static
     packed = g.pack_parameters(cycle, g.GraphSizes(max_objects=1, table_cells=48))

@@ -111,7 +111,7 @@ def test_bench_summary_reports_the_first_plan_beside_median_and_p95():
 
 def test_polish_gain_is_what_the_polish_record_beat():
     from dsmpepc_nlp.bench.timing import polish_gain
-    from dsmpepc_nlp.solve.records import StartRecord
+    from dsmpepc_nlp.solve.plan import StartRecord
 
     def record(name, cost):
         z = np.zeros(4)

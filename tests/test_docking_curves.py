@@ -9,9 +9,9 @@ import pytest
 from dsmpepc_nlp.core.config import DockingConfig, PlannerConfig, RobotState
 from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.world import DynamicObstacle, World
-from dsmpepc_nlp.solve import docking
-from dsmpepc_nlp.solve.cycle import Cycle
-from dsmpepc_nlp.solve.evaluator import Evaluator
+from dsmpepc_nlp.solve.behaviours import docking
+from dsmpepc_nlp.solve.exact.cycle import Cycle
+from dsmpepc_nlp.solve.exact.evaluator import Evaluator
 
 FACING_LEFT = RobotState(0.0, 0.0, math.pi / 2)
 """A robot facing +y with its goal 1.5 m to its right: every straight docking way begins with

@@ -6,10 +6,10 @@ import pytest
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, World
-from dsmpepc_nlp.solve import exact
-from dsmpepc_nlp.solve.cycle import Cycle
-from dsmpepc_nlp.solve.evaluator import Evaluator, evaluate_batch
-from dsmpepc_nlp.solve.starts import box_samples
+from dsmpepc_nlp.solve.exact import loader as exact
+from dsmpepc_nlp.solve.exact.cycle import Cycle
+from dsmpepc_nlp.solve.exact.evaluator import Evaluator, evaluate_batch
+from dsmpepc_nlp.solve.optimize.starts import box_samples
 
 CONFIG = PlannerConfig()
 

@@ -18,14 +18,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from dsmpepc_nlp.core import compile_cache as cache
 from dsmpepc_nlp.core.config import VARIANTS, PlannerConfig, RobotConfig, RobotState
 from dsmpepc_nlp.core.cost_config import CostConfig
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.terms import TERM_NAMES
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
-from dsmpepc_nlp.solve import cache, exact
-from dsmpepc_nlp.solve.cycle import PARAMETERS, Cycle
-from dsmpepc_nlp.solve.evaluator import Evaluator, evaluate_batch
+from dsmpepc_nlp.solve.exact import loader as exact
+from dsmpepc_nlp.solve.exact.cycle import PARAMETERS, Cycle
+from dsmpepc_nlp.solve.exact.evaluator import Evaluator, evaluate_batch
 
 needs_kernel = pytest.mark.skipif(exact.kernel() is None,
                                   reason="compiled evaluator off (numba missing or "
@@ -225,8 +226,8 @@ def test_fallback_warns_once_and_agrees(tmp_path):
         "warnings.simplefilter('always')\n"
         "from dsmpepc_nlp.core.config import PlannerConfig, RobotState\n"
         "from dsmpepc_nlp.core.world import World, DynamicObstacle\n"
-        "from dsmpepc_nlp.solve.cycle import Cycle\n"
-        "from dsmpepc_nlp.solve import evaluator, exact\n"
+        "from dsmpepc_nlp.solve.exact.cycle import Cycle\n"
+        "from dsmpepc_nlp.solve.exact import evaluator, loader as exact\n"
         "w = World(obstacles=[DynamicObstacle.pedestrian((2.0, 0.5), (-0.5, 0.0))])\n"
         "c = Cycle.prepare(RobotState(0.0, 0.0, 0.0), w, (4.0, 0.0), PlannerConfig())\n"
         "z = np.array([[2.0, 0.1, 0.2, 0.8], [1.0, 0.0, 0.0, 0.5]])\n"

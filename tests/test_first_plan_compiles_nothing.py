@@ -17,7 +17,7 @@ SCRIPT = r"""
 import json, time
 import numpy as np
 from dsmpepc_nlp import DynamicObstacle, OccupancyGrid, Planner, RobotState, SolverConfig, World
-from dsmpepc_nlp.solve import exact
+from dsmpepc_nlp.solve.exact import loader as exact
 import dsmpepc_nlp
 
 planner = Planner(solver=SolverConfig.sampling())

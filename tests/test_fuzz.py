@@ -18,7 +18,7 @@ from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
 from dsmpepc_nlp.sim.outcomes import OUTCOMES
 from dsmpepc_nlp.sim.simulate import simulate
 from dsmpepc_nlp.sim.types import Agent, FixedGoal, Pedestrian, Scenario
-from dsmpepc_nlp.solve import backup
+from dsmpepc_nlp.solve.behaviours import ways
 from dsmpepc_nlp.solve.planner import Planner
 
 SLOW = os.environ.get("HYPOTHESIS_PROFILE") == "slow"
@@ -77,7 +77,7 @@ def assert_control_in_limits(plan, config):
     assert math.isfinite(v) and math.isfinite(omega)
     assert -robot.reverse_limit <= v <= robot.v_limit and abs(omega) <= robot.omega_limit
     if plan.status in ("backing-up", "clearing"):
-        assert v >= -backup.back_up_speed(config)
+        assert v >= -ways.back_up_speed(config)
     elif plan.status != "start-in-collision":
         assert v >= 0.0, plan.message
 

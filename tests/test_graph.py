@@ -9,17 +9,18 @@ import casadi as ca
 import numpy as np
 import pytest
 
+from dsmpepc_nlp.core import compile_cache as cache
 from dsmpepc_nlp.core.config import HorizonConfig, PlannerConfig
 from dsmpepc_nlp.core.control_law import rollout
 from dsmpepc_nlp.core.cost_config import SmoothingConfig
 from dsmpepc_nlp.core.exact_cost import evaluate
 from dsmpepc_nlp.core.grid import FAR
 from dsmpepc_nlp.core.terms import TERM_NAMES
-from dsmpepc_nlp.solve import cache, compiled
-from dsmpepc_nlp.solve import graph as g
-from dsmpepc_nlp.solve.cycle import Cycle
-from dsmpepc_nlp.solve.evaluator import Evaluator
-from dsmpepc_nlp.solve.graph.geometry import table_lookup
+from dsmpepc_nlp.solve import problem as g
+from dsmpepc_nlp.solve.build import compiled
+from dsmpepc_nlp.solve.exact.cycle import Cycle
+from dsmpepc_nlp.solve.exact.evaluator import Evaluator
+from dsmpepc_nlp.solve.problem.geometry import table_lookup
 
 CONFIG = PlannerConfig()
 
@@ -166,8 +167,8 @@ def test_compiled_newton_loop_takes_the_python_loops_steps(tmp_path, monkeypatch
     the Python loop with the SR1 Hessian: same iterations, evaluations, status and point
     (to rounding: numba's and numpy's 4 x 4 products may differ in the last bit)."""
     from dsmpepc_nlp.core.solver_config import SolverConfig
-    from dsmpepc_nlp.solve import newton, threads
-    from dsmpepc_nlp.solve import problem as problems
+    from dsmpepc_nlp.solve.build import library as problems
+    from dsmpepc_nlp.solve.optimize import newton, threads
 
     _compile_into(tmp_path, monkeypatch)
     problem = problems.Problem(SMALL_CONFIG, SMALL_SIZES, SolverConfig())
@@ -225,8 +226,8 @@ def test_ipopt_solves_on_threads_are_the_solves_one_after_another(tmp_path, monk
     """``solve_threads``: each thread slot has its own nlpsol; every start, cold or warm,
     gives the same point, cost, iterations and status as when solved alone, in order."""
     from dsmpepc_nlp.core.solver_config import SolverConfig
-    from dsmpepc_nlp.solve import ipopt
-    from dsmpepc_nlp.solve import problem as problems
+    from dsmpepc_nlp.solve.build import library as problems
+    from dsmpepc_nlp.solve.optimize import ipopt
 
     monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
     if compile_:
@@ -274,8 +275,8 @@ def test_newton_on_the_global_graph_returns_finite_records(tmp_path, monkeypatch
     """``SolverConfig.fast()``: one solve per start, records in the box, never above the
     start on the smooth cost."""
     from dsmpepc_nlp.core.solver_config import SolverConfig
-    from dsmpepc_nlp.solve.nlp import NlpSolver
-    from dsmpepc_nlp.solve.starts import structured_starts
+    from dsmpepc_nlp.solve.optimize.multistart import NlpSolver
+    from dsmpepc_nlp.solve.optimize.starts import structured_starts
 
     monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
     monkeypatch.setenv("DSMPEPC_NO_COMPILE", "1")
@@ -299,7 +300,7 @@ def test_newton_on_the_global_graph_returns_finite_records(tmp_path, monkeypatch
 
 def test_object_bucket_is_the_smallest_holding_the_objects_in_reach():
     from dsmpepc_nlp.core.solver_config import SolverConfig
-    from dsmpepc_nlp.solve.nlp import NlpSolver
+    from dsmpepc_nlp.solve.optimize.multistart import NlpSolver
 
     state, world, goal = _demo()
     cycle = Cycle.prepare(state, world, goal, CONFIG)
@@ -499,8 +500,8 @@ def test_the_far_branch_reads_only_what_is_differentiated():
     inputs whose adjoints the gradient carries, not the 37 settings, the circles or the
     velocity (37 additions a call, on every far pose of every object); in the graph to embed
     (nothing fixed) it reads every input."""
-    from dsmpepc_nlp.solve.graph.layout import resolved_sizes
-    from dsmpepc_nlp.solve.graph.pieces import object_function
+    from dsmpepc_nlp.solve.problem.layout import resolved_sizes
+    from dsmpepc_nlp.solve.problem.pieces import object_function
 
     sizes = resolved_sizes(CONFIG, g.GraphSizes(max_objects=3, table_cells=48, pose_objects=2))
     for fixed, read in ((True, {0, 1}), (False, {0, 1, 2, 3, 4, 5})):

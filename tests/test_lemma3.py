@@ -11,7 +11,7 @@ import pytest
 from dsmpepc_nlp.core.config import PlannerConfig, RobotConfig, RobotState
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
-from dsmpepc_nlp.solve import backup
+from dsmpepc_nlp.solve.behaviours import ways
 from dsmpepc_nlp.solve.planner import Planner
 
 FOOTPRINTS = (((0.0, 0.0, 0.3),),
@@ -110,7 +110,7 @@ def test_the_back_up_speed_is_the_reverse_limit_at_most():
     config = PlannerConfig()
     for limit in (0.0, 0.1, 0.3, 2.0):
         robot = dataclasses.replace(config.robot, reverse_limit=limit)
-        speed = backup.back_up_speed(dataclasses.replace(config, robot=robot))
+        speed = ways.back_up_speed(dataclasses.replace(config, robot=robot))
         assert 0.0 <= speed <= limit
 
 

@@ -30,9 +30,10 @@ from dsmpepc_nlp.core.control_law import rollout
 from dsmpepc_nlp.core.cost_config import SmoothingConfig
 from dsmpepc_nlp.core.exact_cost import evaluate
 from dsmpepc_nlp.core.terms import TERM_NAMES
-from dsmpepc_nlp.solve import exact, graph as g
-from dsmpepc_nlp.solve.cycle import Cycle
-from dsmpepc_nlp.solve.evaluator import evaluate_batch
+from dsmpepc_nlp.solve import problem as g
+from dsmpepc_nlp.solve.exact import loader as exact
+from dsmpepc_nlp.solve.exact.cycle import Cycle
+from dsmpepc_nlp.solve.exact.evaluator import evaluate_batch
 
 config = PlannerConfig()
 state = RobotState(0.0, 0.0, 0.0, v=0.3)

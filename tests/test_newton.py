@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from dsmpepc_nlp.core import solver_config
-from dsmpepc_nlp.solve import newton
-from dsmpepc_nlp.solve.cycle import Cycle
-from dsmpepc_nlp.solve.evaluator import Evaluator
-from dsmpepc_nlp.solve.newton import box_qp, box_qp_reference, minimize
+from dsmpepc_nlp.solve.exact.cycle import Cycle
+from dsmpepc_nlp.solve.exact.evaluator import Evaluator
+from dsmpepc_nlp.solve.optimize import newton
+from dsmpepc_nlp.solve.optimize.newton import box_qp, box_qp_reference, minimize
 
 
 @pytest.mark.parametrize("convex", [False, True])
@@ -80,9 +80,9 @@ def test_newton_nlp_solver_records_are_finite_and_in_the_box(monkeypatch):
     from dsmpepc_nlp.core.config import PlannerConfig, RobotState
     from dsmpepc_nlp.core.solver_config import SolverConfig
     from dsmpepc_nlp.core.world import DynamicObstacle, World
-    from dsmpepc_nlp.solve.graph import GraphSizes
-    from dsmpepc_nlp.solve.nlp import NlpSolver
-    from dsmpepc_nlp.solve.starts import structured_starts
+    from dsmpepc_nlp.solve.optimize.multistart import NlpSolver
+    from dsmpepc_nlp.solve.optimize.starts import structured_starts
+    from dsmpepc_nlp.solve.problem import GraphSizes
 
     monkeypatch.setenv("DSMPEPC_NO_COMPILE", "1")      # the logic, on the virtual machine
     cfg = PlannerConfig()
@@ -103,7 +103,7 @@ def test_newton_nlp_solver_records_are_finite_and_in_the_box(monkeypatch):
 def test_compiled_loop_compiles_the_python_loops_step_arithmetic():
     """Both loops take their step's arithmetic from one text (``trust_region``): the compiled
     loop's functions are numba's compilations of the functions the Python loop calls."""
-    from dsmpepc_nlp.solve import trust_region
+    from dsmpepc_nlp.solve.optimize import trust_region
 
     module = newton._kernel()
     if module is None:

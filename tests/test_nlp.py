@@ -19,13 +19,13 @@ from dsmpepc_nlp.core.smooth import CASADI
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.terms import TERM_NAMES
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
-from dsmpepc_nlp.solve import graph
-from dsmpepc_nlp.solve.cycle import Cycle
-from dsmpepc_nlp.solve.evaluator import Evaluator
-from dsmpepc_nlp.solve.graph import cost_function
-from dsmpepc_nlp.solve.nlp import NlpSolver
-from dsmpepc_nlp.solve.sampling import SamplingPlanner
-from dsmpepc_nlp.solve.starts import structured_starts
+from dsmpepc_nlp.solve import problem as graph
+from dsmpepc_nlp.solve.exact.cycle import Cycle
+from dsmpepc_nlp.solve.exact.evaluator import Evaluator
+from dsmpepc_nlp.solve.optimize.multistart import NlpSolver
+from dsmpepc_nlp.solve.optimize.sampling import SamplingPlanner
+from dsmpepc_nlp.solve.optimize.starts import structured_starts
+from dsmpepc_nlp.solve.problem import cost_function
 
 CONFIG = PlannerConfig()
 SMALL = graph.GraphSizes(max_objects=3, table_cells=64, ray_samples=8)
@@ -183,7 +183,7 @@ def test_while_the_kernel_loads_the_screen_keeps_to_the_named_and_spread_starts(
     """A fresh process's first plan runs the exact cost on the numpy path while the compiled
     kernel loads: it screens the named and spread starts (not the Sobol points) and does not
     polish; once the kernel is there (or will never come), the whole screen and the polish."""
-    from dsmpepc_nlp.solve import exact
+    from dsmpepc_nlp.solve.exact import loader as exact
 
     monkeypatch.setattr(exact, "_STATE", {"kernel": None, "failed": "", "numpy_only": False,
                                           "loading": None, "deferred": True})
@@ -221,7 +221,7 @@ def test_cost_function_has_named_terms():
 def test_hessian_is_finite_at_stop_and_in_collision():
     """The Hessian the solvers use is finite where v_max = 0 and where the robot overlaps a
     wall."""
-    from dsmpepc_nlp.solve import problem as problems
+    from dsmpepc_nlp.solve.build import library as problems
 
     state, world, goal = _demo_cycle()
     inside = RobotState(0.4, 6.0, 0.0)                 # overlapping the outer wall at x = 0.2
@@ -236,7 +236,7 @@ def test_hessian_is_finite_at_stop_and_in_collision():
 
 
 def test_polish_never_returns_worse_than_the_best_candidate_and_costs_exactly():
-    from dsmpepc_nlp.solve.evaluator import evaluate_batch
+    from dsmpepc_nlp.solve.exact.evaluator import evaluate_batch
 
     state, world, goal = _demo_cycle()
     cycle = Cycle.prepare(state, world, goal, CONFIG)
@@ -261,8 +261,8 @@ def test_polish_never_returns_worse_than_the_best_candidate_and_costs_exactly():
 @pytest.mark.parametrize("margin, seeds", [(0.0, 1), (0.6, 2), (np.inf, 3)])
 def test_the_polish_leaves_out_candidates_trailing_the_best_by_more_than_its_margin(
         margin, seeds):
-    from dsmpepc_nlp.solve.polish import NEIGHBOURS
-    from dsmpepc_nlp.solve.records import StartRecord
+    from dsmpepc_nlp.solve.optimize.polish import NEIGHBOURS
+    from dsmpepc_nlp.solve.plan import StartRecord
 
     state, world, goal = _demo_cycle()
     cycle = Cycle.prepare(state, world, goal, CONFIG)
@@ -292,8 +292,8 @@ def test_scouts_walk_a_round_in_one_batch_and_the_cheapest_walks_on():
     """``polish_scouts``: the candidates after the ``polish_starts`` walk ``scout_rounds``
     rounds in one batch, then the ``promoted`` cheapest of them walk the rest with the others;
     the other walks are those of the polish without scouts, so its plan is never worse."""
-    from dsmpepc_nlp.solve.polish import NEIGHBOURS
-    from dsmpepc_nlp.solve.records import StartRecord
+    from dsmpepc_nlp.solve.optimize.polish import NEIGHBOURS
+    from dsmpepc_nlp.solve.plan import StartRecord
 
     state, world, goal = _demo_cycle()
     cycle = Cycle.prepare(state, world, goal, CONFIG)
@@ -337,7 +337,8 @@ def _assert_same_records(one, two):
 
 def _compile_afresh(monkeypatch):
     """Both numba kernels loaded afresh (an earlier test may have turned them off)."""
-    from dsmpepc_nlp.solve import exact, newton
+    from dsmpepc_nlp.solve.exact import loader as exact
+    from dsmpepc_nlp.solve.optimize import newton
 
     monkeypatch.delenv("DSMPEPC_NO_COMPILE", raising=False)
     monkeypatch.setattr(exact, "_STATE", {"kernel": None, "failed": "", "numpy_only": False})
@@ -357,8 +358,8 @@ def test_polishing_ahead_on_the_idle_thread_gives_the_same_plan(monkeypatch, met
     import time
 
     from dsmpepc_nlp.bench.scenes import demo_cycles
-    from dsmpepc_nlp.solve import threads
-    from dsmpepc_nlp.solve.threads import run_starts
+    from dsmpepc_nlp.solve.optimize import threads
+    from dsmpepc_nlp.solve.optimize.threads import run_starts
 
     if compile_:
         _compile_afresh(monkeypatch)
@@ -409,8 +410,8 @@ def test_screening_while_the_warm_start_solves_gives_the_same_plan(monkeypatch, 
     import time
 
     from dsmpepc_nlp.bench.scenes import demo_cycles
-    from dsmpepc_nlp.solve import threads
-    from dsmpepc_nlp.solve.threads import run_starts
+    from dsmpepc_nlp.solve.optimize import threads
+    from dsmpepc_nlp.solve.optimize.threads import run_starts
 
     if compile_:
         _compile_afresh(monkeypatch)
@@ -483,8 +484,8 @@ def test_the_screen_keeps_both_cores_unless_a_solve_runs_beside_it(monkeypatch, 
 
 @pytest.mark.parametrize("hessian", ["differences", "quasi-newton"])
 def test_both_solvers_lower_the_smooth_cost_from_their_start(hessian):
-    from dsmpepc_nlp.solve import problem as problems
-    from dsmpepc_nlp.solve import solvers
+    from dsmpepc_nlp.solve.build import library as problems
+    from dsmpepc_nlp.solve.optimize import solvers
 
     state, world, goal = _demo_cycle()
     cycle = Cycle.prepare(state, world, goal, CONFIG)
@@ -502,7 +503,7 @@ def test_both_solvers_lower_the_smooth_cost_from_their_start(hessian):
 
 
 def test_build_prepares_every_object_bucket_of_a_variant():
-    from dsmpepc_nlp.solve import solvers
+    from dsmpepc_nlp.solve.optimize import solvers
 
     result = solvers.build_problems(["mpepc"], SolverConfig(pose_object_buckets=(0, 2)))
     assert result["problems"] == 2 and result["compiled"] is False   # virtual machine here

@@ -1,5 +1,5 @@
-"""Passive safety (``stall.passive``, ``solve/passive.py``): where every way of a doomed plan
-touches someone within ``clearance_within``, the robot takes a way that drives toward no one
+"""Passive safety (``stall.passive``, ``solve/behaviours/passive.py``): where every way of a doomed
+plan touches someone within ``clearance_within``, the robot takes a way that drives toward no one
 it touches (at rest or moving away should the contact come), not the shallowest overlap
 driven on into."""
 
@@ -15,8 +15,9 @@ from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.grid import OccupancyGrid
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, World
-from dsmpepc_nlp.solve import backup, passive
-from dsmpepc_nlp.solve.cycle import Cycle
+from dsmpepc_nlp.solve.behaviours import passive
+from dsmpepc_nlp.solve.behaviours import ways as moves
+from dsmpepc_nlp.solve.exact.cycle import Cycle
 from dsmpepc_nlp.solve.planner import Planner
 
 SOLVER = SolverConfig.sampling(n_samples=256)
@@ -42,8 +43,8 @@ def with_passive(on: bool) -> PlannerConfig:
 
 def ways(state, config) -> Trajectory:
     """The last resort's ways from ``state``: the dodges, the reverses and the stop."""
-    return backup.stacked([backup.dodge_trajectories(state, config),
-                           backup.back_up_trajectories(state, config),
+    return moves.stacked([moves.dodge_trajectories(state, config),
+                           moves.back_up_trajectories(state, config),
                            passive.stopping(state, config)])
 
 
@@ -59,7 +60,7 @@ def test_where_every_way_touches_someone_the_robot_drives_at_no_one():
         "it touches" in still.message
     assert "the clearest way over 1 s" in moving.message
     approach = passive.approach_at_contact(
-        backup.stacked([still.trajectory, moving.trajectory]), cycle, 1.0)
+        moves.stacked([still.trajectory, moving.trajectory]), cycle, 1.0)
     assert approach[0] == pytest.approx(0.0, abs=passive.STILL)
     assert approach[1] > 0.2                    # the shallowest overlap drives on into them
     assert np.all(np.isfinite(still.trajectory.poses)) and np.isfinite(still.fun)
@@ -90,28 +91,28 @@ def test_approach_counts_the_speed_toward_whoever_is_touched_and_not_away():
     touches them, moves away; a wall in the way counts the whole speed."""
     config = with_passive(True)
     ahead = World(obstacles=[DynamicObstacle.pedestrian((0.0, 0.9), (0.0, 0.0), 0.3)])
-    drive = backup.dodge_trajectories(DRIVING, config)
+    drive = moves.dodge_trajectories(DRIVING, config)
     straight = drive[[i for i in range(len(drive)) if np.all(drive.omega[i] == 0.0)
                       and drive.v[i, -1] == config.robot.v_limit][0]]
-    both = backup.stacked([passive.stopping(DRIVING, config), straight])
+    both = moves.stacked([passive.stopping(DRIVING, config), straight])
     approach = passive.approach_at_contact(both, Cycle.prepare(DRIVING, ahead, GOAL, config),
                                            1.0)
     assert approach[0] == 0.0                                     # stops short of them
     assert 0.8 < approach[1] <= config.robot.v_limit + 1e-9
     standing = RobotState(0.0, 0.0, math.pi / 2, 0.0, 0.0)
     behind = World(obstacles=[DynamicObstacle.pedestrian((0.0, -0.9), (0.0, 1.5), 0.3)])
-    back = backup.back_up_trajectories(standing, config)[:1]      # straight back, at them
-    ahead_of_them = backup.dodge_trajectories(standing, config)
+    back = moves.back_up_trajectories(standing, config)[:1]      # straight back, at them
+    ahead_of_them = moves.dodge_trajectories(standing, config)
     away = ahead_of_them[[i for i in range(len(ahead_of_them))
                           if np.all(ahead_of_them.omega[i] == 0.0)][0]]
     cycle = Cycle.prepare(standing, behind, GOAL, config)
-    toward, fleeing = passive.approach_at_contact(backup.stacked([back, away]), cycle, 1.0)
+    toward, fleeing = passive.approach_at_contact(moves.stacked([back, away]), cycle, 1.0)
     assert toward > 0.2 and fleeing == 0.0
-    assert passive.clearance(backup.stacked([away]), cycle, 1.0)[0] < 0.0   # touched, all same
+    assert passive.clearance(moves.stacked([away]), cycle, 1.0)[0] < 0.0   # touched, all same
     occupied = np.zeros((40, 40), bool)
     occupied[27:, :] = True                                       # a wall from y = 0.7 m
     wall = World(OccupancyGrid.from_array(occupied, 0.1, (-2.0, -2.0)))
-    hit = passive.approach_at_contact(backup.stacked([straight]),
+    hit = passive.approach_at_contact(moves.stacked([straight]),
                                       Cycle.prepare(DRIVING, wall, GOAL, config), 1.0)
     assert hit[0] == pytest.approx(np.abs(straight.v[:5]).max())
     nobody = passive.approach_at_contact(both, Cycle.prepare(DRIVING, World(), GOAL, config),
@@ -133,13 +134,13 @@ def test_a_turn_in_place_swings_a_circle_off_the_centre_into_whoever_it_touches(
     (read by the speed along the heading alone, it was still), and a wall it swings into counts
     that circle's speed; a one-circle robot turning in place approaches no one."""
     from dsmpepc_nlp.bench.barn import jackal_robot
-    from dsmpepc_nlp.solve.docking import turn_in_place
+    from dsmpepc_nlp.solve.behaviours.docking import turn_in_place
 
     config = dataclasses.replace(with_passive(True), robot=jackal_robot())
     offset = config.robot.footprint[-1][0]
     standing = RobotState(0.0, 0.0, 0.0, 0.0, 0.0)
     left, right = turn_in_place(standing, config, 1.0), turn_in_place(standing, config, -1.0)
-    turns = backup.stacked([left, right])
+    turns = moves.stacked([left, right])
     points = passive.footprint_points(turns.poses, config.robot.footprint)
     arriving, leaving = passive.circle_velocities(turns, points)
     omega = turns.omega[0, 1]
@@ -159,7 +160,7 @@ def test_a_turn_in_place_swings_a_circle_off_the_centre_into_whoever_it_touches(
                                       1.0)
     assert hit[0] > 0.1
     one = with_passive(True)
-    spin = backup.stacked([turn_in_place(standing, one, 1.0)])
+    spin = moves.stacked([turn_in_place(standing, one, 1.0)])
     near = World(obstacles=[DynamicObstacle.pedestrian((0.0, 0.55), (0.0, 0.0), 0.3)])
     assert passive.approach_at_contact(spin, Cycle.prepare(standing, near, GOAL, one),
                                        1.0)[0] == 0.0

@@ -14,9 +14,9 @@ from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import OccupancyGrid, World
 from dsmpepc_nlp.solve import planner as planner_module
-from dsmpepc_nlp.solve.cycle import Cycle
+from dsmpepc_nlp.solve.exact.cycle import Cycle
+from dsmpepc_nlp.solve.optimize.sampling import SamplingPlanner
 from dsmpepc_nlp.solve.planner import Planner
-from dsmpepc_nlp.solve.sampling import SamplingPlanner
 
 SAMPLING = SolverConfig.sampling(n_samples=64)
 

@@ -9,9 +9,9 @@ from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid, World
-from dsmpepc_nlp.solve import backup
-from dsmpepc_nlp.solve.cycle import Cycle
-from dsmpepc_nlp.solve.evaluator import evaluate_batch
+from dsmpepc_nlp.solve.behaviours import ways
+from dsmpepc_nlp.solve.exact.cycle import Cycle
+from dsmpepc_nlp.solve.exact.evaluator import evaluate_batch
 from dsmpepc_nlp.solve.planner import Planner
 
 SAMPLING = SolverConfig.sampling(n_samples=256)
@@ -25,7 +25,7 @@ def finite_in_limits(plan, robot=LIMITS):
     its last resort, at most its speed (within ``reverse_limit``)."""
     v, omega = plan.control
     reversing = plan.status in ("backing-up", "clearing")
-    low = -backup.back_up_speed(PlannerConfig()) if reversing else 0.0
+    low = -ways.back_up_speed(PlannerConfig()) if reversing else 0.0
     return (math.isfinite(v) and math.isfinite(omega) and low <= v <= robot.v_limit
             and abs(omega) <= robot.omega_limit and not math.isnan(plan.fun))
 

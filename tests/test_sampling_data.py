@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from dsmpepc_nlp.solve import starts
+from dsmpepc_nlp.solve.optimize import starts
 
 
 @pytest.mark.parametrize("seed", [0, 1])

@@ -7,16 +7,18 @@ import casadi as ca
 import numpy as np
 import pytest
 
+from dsmpepc_nlp.core import compile_cache as cache
 from dsmpepc_nlp.core.config import ControlLawConfig, HorizonConfig, PlannerConfig, RobotConfig
 from dsmpepc_nlp.core.control_law import rollout
 from dsmpepc_nlp.core.cost_config import CostConfig, SmoothingConfig
 from dsmpepc_nlp.core.exact_cost import evaluate
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.terms import TERM_NAMES
-from dsmpepc_nlp.solve import cache, compiled, settings
-from dsmpepc_nlp.solve import graph as g
-from dsmpepc_nlp.solve.cycle import Cycle
-from dsmpepc_nlp.solve.problem import structure_key
+from dsmpepc_nlp.solve import problem as g
+from dsmpepc_nlp.solve.build import compiled
+from dsmpepc_nlp.solve.build.library import structure_key
+from dsmpepc_nlp.solve.exact.cycle import Cycle
+from dsmpepc_nlp.solve.problem import parameters as settings
 
 SIZES = g.GraphSizes(max_objects=3, table_cells=48, pose_objects=2)
 
@@ -128,16 +130,16 @@ def test_a_settings_layout_change_gives_a_new_library_key(monkeypatch):
 
 def test_source_closure_is_derived_from_the_imports(tmp_path, monkeypatch):
     monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path))
-    names = {p.name for p in cache.source_closure("dsmpepc_nlp.solve.graph.build")}
+    names = {p.name for p in cache.source_closure("dsmpepc_nlp.solve.problem.build")}
     # The graph's own modules and what they import, not the planner that uses them.
-    assert {"build.py", "pieces.py", "geometry.py", "layout.py", "settings.py", "costs.py",
+    assert {"build.py", "pieces.py", "geometry.py", "layout.py", "parameters.py", "costs.py",
             "control_law.py", "smooth.py", "config.py"} <= names
     assert "planner.py" not in names and "simulate.py" not in names
-    kernel = {p.name for p in cache.source_closure("dsmpepc_nlp.solve.kernel.costs")}
+    kernel = {p.name for p in cache.source_closure("dsmpepc_nlp.solve.exact.kernel.costs")}
     # The kernel's modules, and cycle.py: the kernel freezes cycle.PARAMETERS' positions.
     assert {"cycle.py", "layout.py", "law.py", "geometry.py", "costs.py"} <= kernel
-    first = cache.sources_hash("dsmpepc_nlp.solve.kernel.costs")
-    assert cache.sources_hash("dsmpepc_nlp.solve.kernel.costs") == first   # memo read back
+    first = cache.sources_hash("dsmpepc_nlp.solve.exact.kernel.costs")
+    assert cache.sources_hash("dsmpepc_nlp.solve.exact.kernel.costs") == first   # memo read back
 
 
 def test_sources_hash_follows_an_edit(tmp_path, monkeypatch):
@@ -148,10 +150,10 @@ def test_sources_hash_follows_an_edit(tmp_path, monkeypatch):
     shutil.copytree(cache._PACKAGE, package, ignore=shutil.ignore_patterns("__pycache__"))
     monkeypatch.setattr(cache, "_PACKAGE", package)
     monkeypatch.setenv("DSMPEPC_CACHE_DIR", str(tmp_path / "cache"))
-    before = cache.sources_hash("dsmpepc_nlp.solve.kernel.costs")
-    cycle = package / "solve" / "cycle.py"
+    before = cache.sources_hash("dsmpepc_nlp.solve.exact.kernel.costs")
+    cycle = package / "solve" / "exact" / "cycle.py"
     cycle.write_text(cycle.read_text() + "\n# an edit\n")
-    assert cache.sources_hash("dsmpepc_nlp.solve.kernel.costs") != before
+    assert cache.sources_hash("dsmpepc_nlp.solve.exact.kernel.costs") != before
 
 
 def test_two_checkouts_sharing_a_cache_keep_their_own_hashes(tmp_path, monkeypatch):
@@ -166,10 +168,10 @@ def test_two_checkouts_sharing_a_cache_keep_their_own_hashes(tmp_path, monkeypat
         package = tmp_path / name / "dsmpepc_nlp"
         shutil.copytree(cache._PACKAGE, package, ignore=shutil.ignore_patterns("__pycache__"))
         if name == "b":
-            cycle = package / "solve" / "cycle.py"
+            cycle = package / "solve" / "exact" / "cycle.py"
             cycle.write_text(cycle.read_text() + "\n# other code\n")
         monkeypatch.setattr(cache, "_PACKAGE", package)
-        hashes[name] = cache.sources_hash("dsmpepc_nlp.solve.kernel.costs")
+        hashes[name] = cache.sources_hash("dsmpepc_nlp.solve.exact.kernel.costs")
     assert hashes["a"] != hashes["b"]
 
 
@@ -221,7 +223,7 @@ def test_build_lock_serialises_builders(tmp_path):
 
 
 def test_problem_binds_the_settings_and_the_difference_steps():
-    from dsmpepc_nlp.solve.problem import Problem
+    from dsmpepc_nlp.solve.build.library import Problem
 
     other = _other(PlannerConfig())
     cycle, _ = _scene(other)
@@ -239,7 +241,7 @@ def test_problem_binds_the_settings_and_the_difference_steps():
 
 
 def test_long_generated_functions_are_compiled_lighter():
-    from dsmpepc_nlp.solve import csource
+    from dsmpepc_nlp.solve.build import csource
 
     head = "static int casadi_f{}(const casadi_real** arg, casadi_real** res) {{\n"
     short = head.format(1) + "  a=1;\n" * 3 + "}\n"
@@ -261,7 +263,7 @@ def test_a_centred_circle_is_not_rotated_and_an_offset_one_is():
     did, multiplying them by a parameter that was 0, a measurable share of a call), nor does
     the pose's geometry read an offset; an offset circle rotates, and its graph still equals
     the exact cost (the tests above)."""
-    from dsmpepc_nlp.solve.graph.pieces import pose_functions
+    from dsmpepc_nlp.solve.problem.pieces import pose_functions
 
     trig = {ca.OP_SIN, ca.OP_COS}
     centred = PlannerConfig()

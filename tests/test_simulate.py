@@ -238,8 +238,8 @@ def test_save_load_round_trip_is_exact_and_atomic(tmp_path):
     state, world, goal = inputs[0]
     assert world.grid is not None and len(world.obstacles) == 1
     # the cost logged is the exact cost of the logged z in the reconstructed world
-    from dsmpepc_nlp.solve.cycle import Cycle
-    from dsmpepc_nlp.solve.evaluator import evaluate_batch
+    from dsmpepc_nlp.solve.exact.cycle import Cycle
+    from dsmpepc_nlp.solve.exact.evaluator import evaluate_batch
 
     again = evaluate_batch(ep.z[0, 0], Cycle.prepare(state, world, goal, CONFIG))
     assert again.costs.total[0] == pytest.approx(ep.cost_total[0, 0])

@@ -18,11 +18,11 @@ from dsmpepc_nlp.core.config import (
 from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, World
-from dsmpepc_nlp.solve import docking
-from dsmpepc_nlp.solve.cycle import Cycle
-from dsmpepc_nlp.solve.evaluator import Evaluator
+from dsmpepc_nlp.solve.behaviours import docking
+from dsmpepc_nlp.solve.behaviours.stall import StallMonitor
+from dsmpepc_nlp.solve.exact.cycle import Cycle
+from dsmpepc_nlp.solve.exact.evaluator import Evaluator
 from dsmpepc_nlp.solve.planner import Planner
-from dsmpepc_nlp.solve.stall import StallMonitor
 
 SAMPLING = SolverConfig.sampling(n_samples=64)
 FAR_GOAL = (5.0, 0.0)

@@ -1,4 +1,4 @@
-"""People who stand, drawn into the map the plan sees (solve/standing.py,
+"""People who stand, drawn into the map the plan sees (perception/standing.py,
 ``PredictionConfig.standing_map``): one who has stood a second is drawn and the navigation
 function routes round them; walkers, people just stopped, people on the goal or beside the
 robot, worlds with a map and the paper's settings are planned in as seen."""
@@ -15,8 +15,8 @@ from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.grid import OccupancyGrid
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, World
+from dsmpepc_nlp.perception.standing import RESOLUTION, StandingPeople
 from dsmpepc_nlp.solve.planner import Planner
-from dsmpepc_nlp.solve.standing import RESOLUTION, StandingPeople
 
 CONFIG = PlannerConfig()
 ROBOT, GOAL = (1.0, 0.0), (0.0, 4.0)

@@ -1,10 +1,10 @@
-"""The solves of a plan on threads (``solve/threads.py``): order, the idle thread, errors."""
+"""The solves of a plan on threads (``optimize/threads.py``): order, the idle thread, errors."""
 
 import threading
 
 import pytest
 
-from dsmpepc_nlp.solve.threads import run_starts
+from dsmpepc_nlp.solve.optimize.threads import run_starts
 
 
 def test_the_idle_thread_is_lent_while_the_last_start_solves():
@@ -97,7 +97,7 @@ def test_an_executor_lists_further_starts_once_and_keeps_them_for_a_second_loop(
     """``StartExecutor``: the starts it is given, then the ones ``further`` lists (once, by
     the first thread left without a start), in order; a second ``map`` without starts (a
     solver falling back to another loop) runs all of them again without listing again."""
-    from dsmpepc_nlp.solve.threads import StartExecutor
+    from dsmpepc_nlp.solve.optimize.threads import StartExecutor
 
     asked = []
 

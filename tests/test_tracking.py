@@ -1,4 +1,4 @@
-"""People who start to walk (solve/tracking.py, ``PredictionConfig.speeding_up``): a person who
+"""People who start to walk (perception/walkers.py, ``PredictionConfig.speeding_up``): a person who
 stood at last plan and walks now is predicted at the speed a few plans on, capped; everyone
 else, and every world at the paper's settings, is planned in as seen."""
 
@@ -11,8 +11,8 @@ from dsmpepc_nlp.core.config import PlannerConfig, PredictionConfig
 from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, World
+from dsmpepc_nlp.perception.walkers import SpeedingUp
 from dsmpepc_nlp.solve.planner import Planner
-from dsmpepc_nlp.solve.tracking import SpeedingUp
 
 ON = PlannerConfig(prediction=PredictionConfig(speeding_up=2.0))
 

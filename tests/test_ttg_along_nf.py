@@ -144,8 +144,8 @@ def _random_z(config, n, seed):
 
 def _global_terminal(config, state, world, z):
     from dsmpepc_nlp.core.cost_config import SmoothingConfig
-    from dsmpepc_nlp.solve import graph as g
-    from dsmpepc_nlp.solve.cycle import Cycle
+    from dsmpepc_nlp.solve import problem as g
+    from dsmpepc_nlp.solve.exact.cycle import Cycle
 
     sizes = g.GraphSizes()
     f = g.build_cost_function(config, sizes, SmoothingConfig.exact()).map(len(z))

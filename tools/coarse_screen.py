@@ -33,9 +33,9 @@ import numpy as np  # noqa: E402
 
 from dsmpepc_nlp import PlannerConfig, SolverConfig  # noqa: E402
 from dsmpepc_nlp.core.config import HorizonConfig  # noqa: E402
-from dsmpepc_nlp.solve.cycle import Cycle  # noqa: E402
-from dsmpepc_nlp.solve.evaluator import evaluate_batch  # noqa: E402
-from dsmpepc_nlp.solve.starts import box_samples  # noqa: E402
+from dsmpepc_nlp.solve.exact.cycle import Cycle  # noqa: E402
+from dsmpepc_nlp.solve.exact.evaluator import evaluate_batch  # noqa: E402
+from dsmpepc_nlp.solve.optimize.starts import box_samples  # noqa: E402
 
 TOLERANCE = 0.01
 """The cross-check's tolerance on the exact cost (``dsmpepc crosscheck``)."""

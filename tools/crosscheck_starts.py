@@ -65,7 +65,7 @@ EXTRA = {
 
 
 def record_walks(polish) -> list:
-    """Make ``polish`` (one planner's :class:`~dsmpepc_nlp.solve.polish.Polish`) keep every
+    """Make ``polish`` (one planner's :class:`~dsmpepc_nlp.solve.optimize.polish.Polish`) keep every
     walk's exact cost after each of its own rounds (those run ahead on the idle thread too);
     the list that gets, per plan, one ``{round: cost}`` per walk of the final polish, in its
     seeds' order (cheapest first)."""
@@ -206,7 +206,7 @@ def main() -> None:
     times, default_times, misses = [], [], []
     memory = []
     if args.rolling:
-        from dsmpepc_nlp.solve.starts import box_samples
+        from dsmpepc_nlp.solve.optimize.starts import box_samples
         pool = box_samples(config, 4096, solver.seed + 1)   # the screen's sequence
     for k, ((state, world, goal), ref) in enumerate(zip(cycles, best)):
         extra.clear()

@@ -3,7 +3,8 @@
 A robot 1 m from its goal with a person standing 0.8 m beside the goal (the straight way to
 the goal point fails docking's test; a point of the 0.3 m region passes), facing the goal and
 facing away from it (each region point then behind a turn in place). Times
-:func:`~dsmpepc_nlp.solve.docking.dock` over ``--plans`` fresh cycles each, the median, with
+:func:`~dsmpepc_nlp.solve.behaviours.docking.dock` over ``--plans`` fresh cycles each, the
+median, with
 ``docking.region_points`` 0 and 8, side by side in one run::
 
     python tools/docking_timing.py
@@ -19,9 +20,10 @@ import time
 
 from dsmpepc_nlp.core.config import DockingConfig, PlannerConfig, RobotState
 from dsmpepc_nlp.core.world import DynamicObstacle, World
-from dsmpepc_nlp.solve import docking, exact
-from dsmpepc_nlp.solve.cycle import Cycle
-from dsmpepc_nlp.solve.evaluator import Evaluator
+from dsmpepc_nlp.solve.behaviours import docking
+from dsmpepc_nlp.solve.exact import loader as exact
+from dsmpepc_nlp.solve.exact.cycle import Cycle
+from dsmpepc_nlp.solve.exact.evaluator import Evaluator
 
 GOAL = (3.0, 0.0)
 TOLERANCE = 0.3

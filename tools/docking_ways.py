@@ -27,9 +27,9 @@ import numpy as np
 
 from dsmpepc_nlp.core.config import RobotState
 from dsmpepc_nlp.sim.episode import Episode
-from dsmpepc_nlp.solve import docking
-from dsmpepc_nlp.solve.cycle import Cycle
-from dsmpepc_nlp.solve.evaluator import Evaluator
+from dsmpepc_nlp.solve.behaviours import docking
+from dsmpepc_nlp.solve.exact.cycle import Cycle
+from dsmpepc_nlp.solve.exact.evaluator import Evaluator
 
 
 def ways(episode: Episode, cycle: int, config, tolerance: float) -> dict | None:

@@ -36,7 +36,7 @@ from dsmpepc_nlp.bench.params import named_solver, overrides, replaced
 from dsmpepc_nlp.core.exact_cost import evaluate
 from dsmpepc_nlp.core.solver_config import SOLVER_NAMES, SolverConfig
 from dsmpepc_nlp.sim.episode import Episode
-from dsmpepc_nlp.solve import backup
+from dsmpepc_nlp.solve.behaviours import ways as moves
 from dsmpepc_nlp.solve.planner import Planner
 
 SOLVERS = {SolverConfig.named(name).method: name for name in SOLVER_NAMES}
@@ -79,8 +79,8 @@ def replay(path, before: float, within: float, pairs: tuple = ()) -> dict:
         time = float(log.times[k])
         if time < contact - before - 1e-9:
             continue
-        ways = backup.stacked([plan.trajectory, backup.dodge_trajectories(state, config),
-                               backup.back_up_trajectories(state, config)])
+        ways = moves.stacked([plan.trajectory, moves.dodge_trajectories(state, config),
+                               moves.back_up_trajectories(state, config)])
         total = evaluate(ways, world, goal, config).total
         survival = plan.cost.survivability
         plans.append({"time": time, "status": plan.status,

@@ -35,7 +35,7 @@ from dsmpepc_nlp.bench.crowdnav import SETTINGS, CrowdNavSettings
 from dsmpepc_nlp.bench.crowds import CrowdSettings
 from dsmpepc_nlp.bench.params import named_solver, overrides
 from dsmpepc_nlp.core.exact_cost import evaluate
-from dsmpepc_nlp.solve import backup
+from dsmpepc_nlp.solve.behaviours import judge, ways
 from dsmpepc_nlp.solve.planner import Planner
 
 EVERY = 0.4
@@ -50,18 +50,18 @@ def _rounded(values, step: int) -> list:
 
 def turn_cost(plan, state, goal, cycle) -> float:
     """The exact cost of the cheapest of the stall ladder's turns in place against ``plan``."""
-    turns = backup.turn_trajectories(plan, state, goal, cycle.config)
+    turns = ways.turn_trajectories(plan, state, goal, cycle.config)
     total = evaluate(turns, cycle.world, cycle.goal, cycle.config).total
     return float(np.min(np.where(np.isfinite(total), total, np.inf)))
 
 
 def judged_costs(plan, state, cycle, tolerance: float) -> dict:
     """With ``stall.judge_beyond``, what the rung's judging of the turns weighs
-    (:func:`backup.judged`): the plan's and the cheapest turn's exact costs over the longer
+    (:func:`judge.judged`): the plan's and the cheapest turn's exact costs over the longer
     horizon and their arrival estimates; {} with it off."""
     if not cycle.config.stall.judge_beyond > 0.0:
         return {}
-    _, total, arrival = backup.judged(plan, state, cycle, tolerance)
+    _, total, arrival = judge.judged(plan, state, cycle, tolerance)
     best = 1 + int(np.argmin(total[1:]))
     return {"judged": {"plan_cost": float(total[0]), "turn_cost": float(total[best]),
                        "plan_arrival": float(arrival[0]), "turn_arrival": float(arrival[best])}}

@@ -30,11 +30,11 @@ from dsmpepc_nlp.bench.params import overrides, replaced
 from dsmpepc_nlp.core.config import RobotState
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.sim.episode import Episode
-from dsmpepc_nlp.solve.cycle import Cycle
-from dsmpepc_nlp.solve.evaluator import Evaluator
-from dsmpepc_nlp.solve.sampling import SamplingPlanner
-from dsmpepc_nlp.solve.stall import StallMonitor
-from dsmpepc_nlp.solve.starts import structured_starts
+from dsmpepc_nlp.solve.behaviours.stall import StallMonitor
+from dsmpepc_nlp.solve.exact.cycle import Cycle
+from dsmpepc_nlp.solve.exact.evaluator import Evaluator
+from dsmpepc_nlp.solve.optimize.sampling import SamplingPlanner
+from dsmpepc_nlp.solve.optimize.starts import structured_starts
 
 
 def costed(episode: Episode, cycle: int, config, n_samples: int = 4096, seed: int = 0):

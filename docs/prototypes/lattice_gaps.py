@@ -2,7 +2,7 @@
 
 For every CrowdNav collision of a benchmark's ``--out`` folder that ``dsmpepc failures OUT
 --escape`` found a way out of, this replays the episode and, at every cycle where the last
-resort acted (``backup.clearest``, status ``clearing``), sets the widest predicted gap over the
+resort acted (``last_resort.clearest``, status ``clearing``), sets the widest predicted gap over the
 next second of its ways (the plan, 96 dodges, 3 reverses) beside the widest of a lattice of
 9**4 = 6561 command sequences within the robot's limits: each of the first four plan periods
 changes the speed by -1, 0 or +1 period's acceleration (speeds -0.3 to ``v_limit`` m/s) and the
@@ -26,7 +26,8 @@ import numpy as np
 from dsmpepc_nlp.bench import crowdnav
 from dsmpepc_nlp.bench.crowdnav import CrowdNavSettings
 from dsmpepc_nlp.core.control_law import clamp_measured, commanded
-from dsmpepc_nlp.solve import backup
+from dsmpepc_nlp.solve.behaviours import last_resort, passive
+from dsmpepc_nlp.solve.behaviours import ways as moves
 
 DECIDE = 4
 """Plan periods in which the lattice's commands change; they hold after."""
@@ -62,21 +63,21 @@ def main() -> None:
     episodes = [int(f["label"].split("episode=")[1].split()[0]) for f in report["failures"]
                 if f["evidence"].get("escape") in ("forward", "rung", "full")]
     rows = []
-    original = backup.clearest
+    original = last_resort.clearest
 
     def watched(plan, state, cycle, arrival=float("inf"), ways=None):
         chosen = original(plan, state, cycle, arrival, ways)
         if chosen is not None:
             within = cycle.config.stall.clearance_within
-            ways = backup.stacked([plan.trajectory, backup.Ways(state, cycle.config).dodges,
-                                   backup.Ways(state, cycle.config).reverses])
-            now = np.nanmax(backup.clearance(ways, cycle, within))
-            rich = np.nanmax(backup.clearance(lattice(state, cycle.config), cycle, within))
+            ways = moves.stacked([plan.trajectory, moves.Ways(state, cycle.config).dodges,
+                                   moves.Ways(state, cycle.config).reverses])
+            now = np.nanmax(passive.clearance(ways, cycle, within))
+            rich = np.nanmax(passive.clearance(lattice(state, cycle.config), cycle, within))
             rows.append((episode, float(now), float(rich)))
             print(f"episode {episode}: widest gap {now:.3f} m (its ways), {rich:.3f} m (lattice)")
         return chosen
 
-    backup.clearest = watched
+    last_resort.clearest = watched
     settings = CrowdNavSettings(scene=args.scene, setting=args.robot)
     for episode in episodes:
         crowdnav.simulate_episode(settings, "ds-mpepc", episode, args.seed)

@@ -45,7 +45,7 @@ def solver_config(name: str, n_samples: int | None = None) -> SolverConfig:
     solver = params.named_solver(name, n_samples)
     if solver.method != "sampling":
         try:
-            from ..solve import nlp  # noqa: F401  (CasADi's IPOPT may be missing)
+            from ..solve.optimize import multistart  # noqa: F401  (IPOPT may be missing)
         except ImportError as exc:
             raise InputError(f"--solver {name}: the NLP solver is not available ({exc}); "
                              "use --solver sampling") from None

@@ -23,7 +23,7 @@ class CrosscheckResult:
     gap : ndarray, (cycles,)
         ``nlp_cost - sampled_cost``; <= 0 when the NLP is as good or better.
     nlp_status : tuple of str
-        :attr:`~dsmpepc_nlp.solve.records.Plan.status` of each NLP plan.
+        :attr:`~dsmpepc_nlp.solve.plan.Plan.status` of each NLP plan.
     tol : float
         The tolerance of :attr:`share_within_tol`.
     docked : ndarray of bool, (cycles,)
@@ -113,7 +113,7 @@ def crosscheck(cycles, config: PlannerConfig, solver_config: SolverConfig | None
     stall monitor: its ladder changes the cost from one cycle to the next (the progress weight
     up to x8, and the gaps in cost units with it), and the two solvers are compared on one cost.
     """
-    from ..solve import docking
+    from ..solve.behaviours import docking
     from ..solve.planner import Planner
 
     config = dataclasses.replace(config, stall=dataclasses.replace(config.stall, levels=0))

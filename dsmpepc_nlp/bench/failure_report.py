@@ -26,7 +26,7 @@ from ..core.files import atomic_write_text
 from ..core.jsonio import dumps, json_clean
 from ..sim.episode import Episode
 from ..sim.panels import cost_panels
-from ..solve.stall import StallMonitor
+from ..solve.behaviours.stall import StallMonitor
 from ..viz import figures
 from .escape import escapes
 from .failures import CLASSES, classify
@@ -220,7 +220,7 @@ def stuck_config(episode, robot: int, cycle: int, config=None) -> tuple:
     """``(config, level)``: the configuration ``robot`` planned ``cycle`` with, the episode's
     (or ``config``) at the stall ladder's level then (the progress weight times
     ``stall.gain ** level``), found by replaying the stall monitor over the robot's logged
-    plans up to that cycle (:meth:`~dsmpepc_nlp.solve.stall.StallMonitor.replay`)."""
+    plans up to that cycle (:meth:`~dsmpepc_nlp.solve.behaviours.stall.StallMonitor.replay`)."""
     monitor = StallMonitor(episode.config() if config is None else config)
     planned = [j for j in np.flatnonzero(episode.active[robot]) if j <= cycle]
     states = [RobotState(*(float(s) for s in episode.states[robot, j])) for j in planned]

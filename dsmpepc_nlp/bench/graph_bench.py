@@ -23,9 +23,9 @@ from ..core.exact_cost import evaluate
 from ..core.solver_config import SolverConfig
 from ..sim.scenario import load_scenario
 from ..sim.simulate import simulate
-from ..solve import compiled
-from ..solve import graph as g
-from ..solve.cycle import Cycle
+from ..solve import problem as g
+from ..solve.build import compiled
+from ..solve.exact.cycle import Cycle
 from ..solve.planner import Planner
 from .crosscheck import crosscheck
 from .scenes import demo_cycles

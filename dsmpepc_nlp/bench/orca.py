@@ -121,7 +121,7 @@ class _Trajectory:
 
 @dataclass(frozen=True)
 class OrcaPlan:
-    """The fields of :class:`~dsmpepc_nlp.solve.records.Plan` that the closed loop and its log use.
+    """The fields of :class:`~dsmpepc_nlp.solve.plan.Plan` that the closed loop and its log use.
 
     ``x`` and ``fun`` are NaN (ORCA has no z and no cost); ``trajectory`` holds the command of
     this cycle over the horizon; ``status`` is ``"sampling"`` (the log only knows the planner's

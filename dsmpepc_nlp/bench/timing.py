@@ -15,10 +15,10 @@ import numpy as np
 
 from ..core.config import PlannerConfig
 from ..core.solver_config import SolverConfig
-from ..solve import exact
-from ..solve.cycle import Cycle
-from ..solve.evaluator import Evaluator
-from ..solve.starts import box_samples
+from ..solve.exact import loader as exact
+from ..solve.exact.cycle import Cycle
+from ..solve.exact.evaluator import Evaluator
+from ..solve.optimize.starts import box_samples
 from .scenes import demo_cycles
 
 LADDER = (64, 128, 256, 512, 1024, 2048, 4096, 8192, 16384)

@@ -1,7 +1,7 @@
 """The exact cost of trajectories (docs/method.md sec. 3-5): their geometry measured exactly
 from the world (signed distance field, ray marching, disk closed forms), assembled by
 :func:`.costs.assemble`, the formula the smooth graph uses too. This is the reference the compiled
-kernel (``solve/kernel``) is held to.
+kernel (``solve/exact/kernel``) is held to.
 """
 
 from __future__ import annotations

@@ -254,9 +254,10 @@ class StallConfig:
     someone within ``clearance_within`` (the widest gap below 0) and the robot touches no
     one yet, keep the ways that drive least toward whoever they touch, at the first pose they
     touch each (moving away counts as still; braking to a stop is among them), and take the
-    widest gap of those (``solve/passive.py``): no way then promises no contact, but one can
-    promise not to close it, rather than a dodge that drives on into a walker the prediction
-    has a little wrong. After Fraichard's passive motion safety (at rest at a contact); ours.
+    widest gap of those (``solve/behaviours/passive.py``): no way then promises no contact, but
+    one can promise not to close it, rather than a dodge that drives on into a walker the
+    prediction has a little wrong. After Fraichard's passive motion safety (at rest at a
+    contact); ours.
     On by default: on the tuning episodes it won as many runs as it lost and left fewer
     contacts at fault (docs/results.md, "Drive at no one where every way touches someone")."""
 
@@ -317,7 +318,7 @@ class PredictionConfig:
     """Our extension, s (0: off, as in :meth:`PlannerConfig.paper`): a person who has stood
     (slower than ``standing``) for this long, counted in plans of ``horizon.dt`` and matched
     across plans within ``gate``, is drawn into a grid the plan sees as its map
-    (:mod:`~dsmpepc_nlp.solve.standing`; worlds with a map pass unchanged). Without a map the
+    (:mod:`~dsmpepc_nlp.perception.standing`; worlds with a map pass unchanged). Without a map the
     navigation function is the straight line, and a person standing on it, or two with a gap
     narrower than the robot between them, made every step toward them progress: the robot
     crept at a gap it could not pass until the deadlock rule ended the run. On the grid the

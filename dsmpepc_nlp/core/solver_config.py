@@ -100,7 +100,7 @@ class MultistartSettings:
 
 @dataclass(frozen=True)
 class PolishSettings:
-    """The exact-cost polish after the solves (``solve/polish.py``)."""
+    """The exact-cost polish after the solves (``solve/optimize/polish.py``)."""
 
     rounds: int = 8
     """Rounds of the pattern search: the best candidate's 24 neighbours (a step of ``step``

@@ -6,7 +6,7 @@ its unweighted formula ``raw(q, c)``: ``q`` the trajectory's quantities there
 (:class:`StepQuantities` or :class:`EndQuantities`), ``c`` the cost's numbers (the fields of
 ``CostConfig``, read by attribute). A formula uses arithmetic and :func:`exp` only, so one text
 serves the numpy reference (arrays), the NLP's graph (CasADi symbols) and the compiled kernel
-(numba compiles it for floats): ``costs.assemble`` and ``solve/kernel`` loop over
+(numba compiles it for floats): ``costs.assemble`` and ``solve/exact/kernel`` loop over
 :data:`TERMS`; the weights, switches, breakdown entries and output columns follow the table.
 Adding a term is one :class:`Term` here (and a ``CostConfig`` field for its weight, unless it
 shares one); docs/method.md section 5.3 says what each one is.

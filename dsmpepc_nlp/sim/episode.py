@@ -17,7 +17,7 @@ from ..core.files import atomic_write_bytes
 from ..core.jsonio import json_clean
 from ..core.terms import TERM_NAMES
 from ..core.world import DynamicObstacle, OccupancyGrid, World
-from ..solve.records import STATUSES
+from ..solve.plan import STATUSES
 
 EPISODE_FORMAT = 1
 """Version of the episode file layout."""

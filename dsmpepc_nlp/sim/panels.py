@@ -15,10 +15,10 @@ import numpy as np
 from ..core.config import PlannerConfig, RobotState
 from ..core.solver_config import SolverConfig
 from ..core.world import World
-from ..solve.cycle import Cycle
-from ..solve.evaluator import Evaluator
-from ..solve.sampling import SamplingPlanner
-from ..solve.starts import structured_starts
+from ..solve.exact.cycle import Cycle
+from ..solve.exact.evaluator import Evaluator
+from ..solve.optimize.sampling import SamplingPlanner
+from ..solve.optimize.starts import structured_starts
 
 
 @dataclass(frozen=True)

@@ -28,9 +28,9 @@ from ..core.geometry import footprint_points
 from ..core.solver_config import SolverConfig
 from ..core.terms import TERM_NAMES
 from ..core.world import DynamicObstacle, World
+from ..solve.plan import STATUSES
 from ..solve.planner import Planner
 from ..solve.policy import PlanningPolicy
-from ..solve.records import STATUSES
 from .checks import start_states
 from .episode import Episode, config_to_dict, robot_obstacle
 from .outcomes import (

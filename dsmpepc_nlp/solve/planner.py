@@ -17,17 +17,18 @@ from ..core.exact_cost import CostBreakdown, evaluate
 from ..core.solver_config import SolverConfig
 from ..core.terms import TERM_NAMES
 from ..core.world import World
-from . import backup, docking, exact
-from .cycle import Cycle
-from .evaluator import Evaluation, Evaluator
-from .nlp import NlpSolver
-from .records import Plan
-from .sampling import SamplingPlanner
-from .stall import StallMonitor
-from .standing import StandingPeople
+from ..perception.standing import StandingPeople
+from ..perception.walkers import SpeedingUp
+from .behaviours import backup, docking
+from .behaviours.stall import StallMonitor
+from .exact import loader as exact
+from .exact.cycle import Cycle
+from .exact.evaluator import Evaluation, Evaluator
+from .optimize.multistart import NlpSolver
+from .optimize.sampling import SamplingPlanner
+from .optimize.starts import stop_z, structured_starts
+from .plan import Plan
 from .start_state import as_state, bounded_control, braking, start_overlap
-from .starts import stop_z, structured_starts
-from .tracking import SpeedingUp
 
 FALLBACK_STATUSES = ("sampling-fallback", "stopped")
 """Statuses of a plan the chosen solver did not deliver."""
@@ -70,7 +71,7 @@ class Planner:
     Attributes
     ----------
     last_evaluator : Evaluator or None
-        The last plan's exact evaluator (:class:`~dsmpepc_nlp.solve.evaluator.Evaluator`, one
+        The last plan's exact evaluator (:class:`~dsmpepc_nlp.solve.exact.evaluator.Evaluator`, one
         per plan, the one door every stage costed through): what it costed and how often.
     """
 

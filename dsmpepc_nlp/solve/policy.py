@@ -12,7 +12,7 @@ from typing import Protocol, runtime_checkable
 
 from ..core.config import PlannerConfig, RobotState
 from ..core.world import World
-from .planner import Plan
+from .plan import Plan
 
 
 @runtime_checkable

@@ -12,7 +12,7 @@ from ..core.config import PlannerConfig, RobotConfig, RobotState
 from ..core.control_law import Trajectory, arc_step
 from ..core.errors import InputError
 from ..core.geometry import body_to_world
-from .starts import stop_z
+from .optimize.starts import stop_z
 
 
 def as_state(state) -> RobotState:

@@ -1,0 +1,34 @@
+"""The sampling planner: the exact cost over a fixed low-discrepancy set of z and the named
+starts, the best kept. The NLP's verifier and fallback."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...core.config import PlannerConfig
+from ...core.solver_config import SolverConfig
+from ..exact.evaluator import Evaluation, Evaluator
+from .starts import box_samples
+
+
+class SamplingPlanner:
+    """Exact cost over a fixed low-discrepancy set of z plus the structured starts.
+
+    Parameters
+    ----------
+    config : PlannerConfig
+    solver : SolverConfig
+        ``n_samples`` and ``seed`` are read; the sample set is drawn once, here. (The
+        evaluator a search is given sets how batches are costed.)
+    """
+
+    def __init__(self, config: PlannerConfig, solver: SolverConfig | None = None):
+        solver = SolverConfig.sampling() if solver is None else solver
+        self.config = config
+        self.samples = box_samples(config, solver.n_samples, solver.seed)
+
+    def search(self, evaluator: Evaluator, starts: dict | None = None) -> Evaluation:
+        """Evaluate ``starts`` (a dict of named z) and the sample set with the cycle's
+        ``evaluator``; see :class:`~dsmpepc_nlp.solve.exact.evaluator.Evaluation`."""
+        extra = np.array(list(starts.values())) if starts else np.zeros((0, 4))
+        return evaluator.evaluate(np.vstack([extra, self.samples]))
