@@ -29,6 +29,7 @@ import numpy as np
 
 from ..core.errors import RESOLUTION_RANGE, InputError, number_in, positive_number, shown
 from ..core.grid import OccupancyGrid
+from . import raycast
 from .raycast import cell_index, traverse, window_fraction
 from .scan import LaserScan
 
@@ -189,6 +190,11 @@ class LocalMap:
         self._corner = corner
 
     # -- updating ----------------------------------------------------------------------------
+
+    def prepare(self) -> bool:
+        """Load (or compile) the compiled ray traversal now, not in the first update; False
+        on the numpy path."""
+        return raycast.warm_up()
 
     def update(self, scan: LaserScan) -> dict:
         """Roll the window to the sensor, forget stale marks, clear along the beams, mark hits.

@@ -20,15 +20,10 @@ from __future__ import annotations
 
 import functools
 import math
-import os
 
 import numpy as np
 
-
-def compile_enabled() -> bool:
-    """False when ``DSMPEPC_NO_COMPILE`` is set to anything but "", "0", "false" or "no"."""
-    value = os.environ.get("DSMPEPC_NO_COMPILE", "").strip().lower()
-    return value in ("", "0", "false", "no")
+from ..core.compile_cache import compile_enabled, import_numba_module, numba_folder
 
 
 def traverse(u0, v0, u1, v1, exclude, n) -> np.ndarray:
@@ -129,42 +124,23 @@ def traverse_numpy(u0, v0, u1, v1, exclude, n, mask) -> None:
 # numba
 
 
-def _traverse_loops(u0, v0, u1, v1, exclude, n, mask):  # pragma: no cover - compiled
-    """The traversal (see :func:`traverse`) beam by beam; compiled by :func:`_compiled_kernel`."""
-    for beam in range(u1.size):
-        du = u1[beam] - u0
-        dv = v1[beam] - v0
-        ix = math.floor(u0) if du >= 0.0 else math.ceil(u0) - 1
-        iy = math.floor(v0) if dv >= 0.0 else math.ceil(v0) - 1
-        if 0 <= ix < n and 0 <= iy < n and iy * n + ix != exclude[beam]:
-            mask[iy * n + ix] = True
-        for axis in range(2):
-            a0, b0, da, db = (u0, v0, du, dv) if axis == 0 else (v0, u0, dv, du)
-            a1 = u1[beam] if axis == 0 else v1[beam]
-            if da > 0.0:
-                first, last = math.floor(a0) + 1, math.ceil(a1) - 1
-            elif da < 0.0:
-                first, last = math.floor(a1) + 1, math.ceil(a0) - 1
-            else:
-                continue
-            for line in range(first, last + 1):
-                t = (line - a0) / da
-                b = b0 + t * db
-                cell_b = math.floor(b) if db >= 0.0 else math.ceil(b) - 1
-                cell_a = line if da > 0.0 else line - 1
-                ix, iy = (cell_a, cell_b) if axis == 0 else (cell_b, cell_a)
-                if 0 <= ix < n and 0 <= iy < n and iy * n + ix != exclude[beam]:
-                    mask[iy * n + ix] = True
-
-
+@functools.lru_cache(maxsize=1)
 @functools.lru_cache(maxsize=1)
 def _compiled_kernel():
-    """The numba-compiled :func:`_traverse_loops` (cached on disk), or None without numba."""
+    """The numba-compiled traversal (:mod:`._raycast_kernel`, cached on disk beside the other
+    compiled kernels, :mod:`dsmpepc_nlp.core.compile_cache`), or None without numba or with the
+    cache not writable."""
+    name = f"{__package__}._raycast_kernel"
     try:
-        import numba  # here, not at the top: its import costs ~0.4 s a numpy user skips
-    except ImportError:
+        return import_numba_module(name, numba_folder(name)).traverse_loops
+    except (ImportError, OSError):
         return None
-    try:
-        return numba.njit(cache=True, nogil=True)(_traverse_loops)
-    except RuntimeError:  # no writable place for numba's cache: compile in memory each run
-        return numba.njit(nogil=True)(_traverse_loops)
+
+
+def warm_up() -> bool:
+    """Run the compiled traversal once, so that its code is loaded (or compiled) now and not in
+    a robot's first update; False on the numpy path."""
+    if not compile_enabled() or _compiled_kernel() is None:
+        return False
+    traverse(0.5, 0.5, np.array([2.5]), np.array([1.5]), np.array([-1]), 3)
+    return True
