@@ -32,6 +32,7 @@ from .core.solver_config import SOLVER_NAMES
 from .sim.metrics import episode_metrics
 from .sim.panels import cost_panels
 from .sim.scenario import builtin_names, load_scenario
+from .sim.sensing import load_profile
 from .sim.simulate import simulate
 from .solve.exact.loader import build_kernel
 from .viz import figures
@@ -62,18 +63,20 @@ def _sample_cycles(scenario, config, count):
 
 def run_one(scenario, variant: str, solver_name: str, seed: int, out: Path, *,
             animate: bool = False, sample_cycles: int = DEFAULT_SAMPLE_CYCLES,
-            figure: bool = True, preset: str = "product") -> dict:
+            figure: bool = True, preset: str = "product", sensing: str = "oracle") -> dict:
     """Simulate one scenario with one variant; write the episode and figures; return a summary."""
     config = preset_config(preset, variant)
     solver = commands.solver_config(solver_name)
+    profile = load_profile(sensing)
     progress = EpisodeProgress(f"{scenario.name} {variant} {solver_name}")
     started = time.perf_counter()
     episode = simulate(scenario, config, solver, np.random.default_rng(seed),
                        record_samples=_sample_cycles(scenario, config, sample_cycles),
-                       progress=progress)
+                       progress=progress, sensing=profile)
     wall = time.perf_counter() - started
     progress.done(", ".join(episode.outcomes))
-    stem = f"{scenario.name}-{variant}-{solver_name}-seed{seed}"
+    sensed = "" if profile.is_oracle else f"-{profile.name}"
+    stem = f"{scenario.name}-{variant}-{solver_name}{sensed}-seed{seed}"
     files = {"episode": str(episode.save(out / f"{stem}.npz"))}
     if figure:
         files["figure"] = str(figures().episode_figure(episode, path=out / f"{stem}.png"))
@@ -82,7 +85,8 @@ def run_one(scenario, variant: str, solver_name: str, seed: int, out: Path, *,
         files["animation"] = str(figures().animate(episode, out / f"{stem}.gif", stride=stride))
     return {
         "scenario": scenario.name, "variant": variant, "solver": solver_name, "seed": seed,
-        "outcomes": list(episode.outcomes), "metrics": json_clean(episode_metrics(episode)),
+        "sensing": profile.name, "outcomes": list(episode.outcomes),
+        "metrics": json_clean(episode_metrics(episode)),
         "wall_time": wall, "files": files, "_episode": episode,
     }
 
@@ -135,7 +139,8 @@ def cmd_list(args) -> int:
 def cmd_run(args) -> int:
     scenario = load_scenario(args.scenario)
     summary = run_one(scenario, args.variant, args.solver, args.seed, Path(args.out),
-                      animate=args.animate, sample_cycles=args.samples, preset=args.preset)
+                      animate=args.animate, sample_cycles=args.samples, preset=args.preset,
+                      sensing=args.sensing)
     if args.panels is not None:
         summary["files"]["panels"] = str(_cost_panels(summary["_episode"], args.panels,
                                                       Path(args.out)))
@@ -171,8 +176,11 @@ def cmd_compare(args) -> int:
         raise UsageError(f"--variants: {' '.join(variants)} repeats a variant")
     out = Path(args.out)
     results = {v: run_one(scenario, v, args.solver, args.seed, out, figure=False,
-                          sample_cycles=0, preset=args.preset) for v in variants}
-    figure = out / f"{scenario.name}-compare-{'-'.join(variants)}-{args.solver}-seed{args.seed}.png"
+                          sample_cycles=0, preset=args.preset, sensing=args.sensing)
+               for v in variants}
+    sensed = "" if args.sensing == "oracle" else f"-{load_profile(args.sensing).name}"
+    figure = out / (f"{scenario.name}-compare-{'-'.join(variants)}-{args.solver}{sensed}"
+                    f"-seed{args.seed}.png")
     figures().compare_figure({v: r["_episode"] for v, r in results.items()}, path=figure)
     if args.json:
         payload = {v: dict(_public(r), files=dict(r["files"], compare_figure=str(figure)))
@@ -186,8 +194,12 @@ def cmd_compare(args) -> int:
     return 0
 
 
-def _scenario_options(p, *, variant=True):
+def _scenario_options(p, *, variant=True, sensing=True):
     """Options of the commands that run one scenario: run, compare, crosscheck."""
+    if sensing:
+        p.add_argument("--sensing", default="oracle", metavar="NAME|FILE",
+                       help="what the robot senses: oracle (the truth, default), lidar, "
+                            "tracked, realistic, or a profile YAML (docs/sensing.md)")
     p.add_argument("scenario", help="built-in name (see 'list') or path of a YAML file")
     if variant:
         p.add_argument("--variant", choices=list(VARIANTS), default="ds-mpepc")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from dsmpepc_nlp import cli
-from dsmpepc_nlp.bench import barn, commands
+from dsmpepc_nlp.bench import barn, params
 
 
 def write_world(folder, index, extra=((10, 5),), with_metrics=True):
@@ -158,4 +158,4 @@ def test_overrides_reach_the_configuration(tmp_path):
     assert config.robot.footprint == barn.jackal_robot().footprint
     assert s.meta()["overrides"] == {"sigma_static": 0.05, "robot.omega_limit": 1.0}
     with pytest.raises(ValueError, match="one value"):
-        commands.overrides(["sigma_static=0.05,0.1"])
+        params.overrides(["sigma_static=0.05,0.1"])

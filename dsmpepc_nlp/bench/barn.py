@@ -201,12 +201,13 @@ def reference_path_length(cells) -> float:
     return float(np.sum(np.linalg.norm(np.diff(points, axis=0), axis=1)))
 
 
-def score(success: bool, actual_time: float, path_length: float) -> float:
-    """Challenge score ``1[success] * T_opt / clip(t, 2 T_opt, 8 T_opt)``, T_opt = L / 2 m/s."""
+def score(success: bool, actual_time: float, path_length: float, low: float = 2.0) -> float:
+    """Challenge score ``1[success] * T_opt / clip(t, low T_opt, 8 T_opt)``, T_opt = L / 2 m/s:
+    ``low`` 2 since 2024 (at most 0.5), 4 before (at most 0.25, ``score_2020`` in the table)."""
     if not success:
         return 0.0
     optimal = path_length / REFERENCE_SPEED
-    return float(optimal / np.clip(actual_time, 2 * optimal, 8 * optimal))
+    return float(optimal / np.clip(actual_time, low * optimal, 8 * optimal))
 
 
 @dataclass(frozen=True)
@@ -266,12 +267,15 @@ class BarnSettings:
     (``sigma_static`` for a cost field, ``part.field`` for another part)."""
     preset: str = "product"
     """``product`` or ``paper`` (:data:`~dsmpepc_nlp.bench.params.PRESETS`)."""
+    sensing: str = "oracle"
+    """What the robot senses (``--sensing``): a built-in profile or a profile file
+    (:mod:`dsmpepc_nlp.sim.sensing`); ``oracle``, the truth, by default."""
 
     def meta(self) -> dict:
         return {"benchmark": "barn", "variant": self.variant, "solver": self.solver,
                 "v_limit": self.v_limit, "resolution": self.resolution,
                 "time_limit": self.time_limit, "n_samples": self.n_samples,
-                **config_meta(self.preset, self.overrides)}
+                **config_meta(self.preset, self.overrides, self.sensing)}
 
     def config(self) -> PlannerConfig:
         """The variant under the preset with the Jackal body and the overrides."""
@@ -290,12 +294,14 @@ def run_world(index: int, settings: BarnSettings, out_dir=None) -> dict:
         robot = config.robot
         episode = simulate(scenario(world, robot, settings.time_limit), config,
                            named_solver(settings.solver, settings.n_samples),
-                           np.random.default_rng(index), record_trajectories=False)
+                           np.random.default_rng(index), record_trajectories=False,
+                           sensing=settings.sensing)
         m = episode_metrics(episode)[0]
         success = m["outcome"] == "success"
         row.update(
             outcome=m["outcome"], time=m["outcome_time"],
             score=score(success, m["outcome_time"], world.path_length),
+            score_2020=score(success, m["outcome_time"], world.path_length, low=4.0),
             path_length=m["path_length"], reference_path_length=world.path_length,
             min_static_clearance=m["min_static_clearance"],
             plan_time_median=m["plan_time_median"], plan_time_p95=m["plan_time_p95"],
@@ -306,7 +312,8 @@ def run_world(index: int, settings: BarnSettings, out_dir=None) -> dict:
         for k, name in enumerate(METRIC_NAMES):
             row[name] = float(metrics[k]) if metrics is not None else None
     except Exception as exc:  # recorded, not dropped: the table says what failed
-        row.update(outcome="error", score=0.0, message=f"{type(exc).__name__}: {exc}")
+        row.update(outcome="error", score=0.0, score_2020=0.0,
+                   message=f"{type(exc).__name__}: {exc}")
     row["wall_time"] = time.perf_counter() - started
     return row
 
@@ -316,12 +323,15 @@ def summarise(rows) -> dict:
     :func:`~dsmpepc_nlp.bench.runner.plan_time_summary` over the worlds."""
     return {"worlds": len(rows), **outcome_rates(r["outcome"] for r in rows),
             "mean_score": mean(rows, "score"),
+            "mean_score_2020": mean(rows, "score_2020") if all("score_2020" in r for r in rows)
+            else None,
             "mean_time_success": mean(rows, "time", lambda r: r["outcome"] == "success"),
             **plan_time_summary(rows)}
 
 
 def run_benchmark(settings: BarnSettings, worlds, out_dir, *, workers: int | None = None,
-                  resume=False, overwrite=False, progress=True) -> tuple[list, dict]:
+                  scheduler=None, resume=False, overwrite=False,
+                  progress=True) -> tuple[list, dict]:
     """Run ``worlds`` into ``out_dir/barn.{csv,json}`` (+ ``barn.png``); rows and summary.
 
     Worlds already in the table are skipped when ``resume`` is True. ``progress``: where the
@@ -335,7 +345,8 @@ def run_benchmark(settings: BarnSettings, worlds, out_dir, *, workers: int | Non
             raise InputError(f"BARN data {settings.data!r}: no grid_files/grid_{w}.npy")
     run_all(run_world, [(w, settings, str(out_dir)) for w in worlds], table, label="barn",
             key=lambda task: (task[0], settings.variant, settings.solver), workers=workers,
-            progress=progress, describe=lambda row: f"world {row['world']}: {row['outcome']}")
+            scheduler=scheduler, progress=progress,
+            describe=lambda row: f"world {row['world']}: {row['outcome']}")
     rows = [r for r in table.rows if r["variant"] == settings.variant
             and r["solver"] == settings.solver and r["world"] in set(worlds)]
     rows.sort(key=lambda r: r["world"])

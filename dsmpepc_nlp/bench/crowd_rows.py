@@ -140,14 +140,14 @@ def _never_free(rows) -> dict:
 
 
 def run_variants(run_episode, settings, variants, episodes: int, seed: int, table, *, label,
-                 workers=None, progress=True) -> dict:
+                 workers=None, scheduler=None, progress=True) -> dict:
     """:func:`~dsmpepc_nlp.bench.runner.run_all` over every (variant, episode) of a crowd
     benchmark (``run_episode(settings, variant, episode, seed)``) into ``table``; the
     :func:`summarise` of each variant's rows, by variant."""
     run_all(run_episode, [(settings, v, e, seed, str(table.folder)) for v in variants
                           for e in range(episodes)],
             table, label=label, key=lambda task: (task[1], task[2], task[3]),
-            workers=workers, progress=progress,
+            workers=workers, scheduler=scheduler, progress=progress,
             describe=lambda row: f"{row['variant']} episode {row['episode']}: {row['outcome']}")
     return {v: summarise([r for r in table.rows if r["variant"] == v and r["seed"] == seed
                           and r["episode"] < episodes]) for v in variants}

@@ -22,12 +22,9 @@ Episodes are CrowdNav's test cases: with ``--seed 0`` episode ``k`` draws the hu
 numpy's legacy generator seeded ``1000 + k`` in CrowdNav's order of draws, as CrowdNav's test
 phase does (:func:`case_rng`), so episodes 0-499 are the 500 test cases of the literature.
 
-Control period: CrowdNav's time step is 0.25 s; our planner's horizon step is 0.2 s
-(docs/method.md section 2).
-We keep the method as it is (0.2 s horizon, its acceleration limits per 0.2 s step) and run the
-loop at 0.25 s: every 0.25 s the robot plans once and holds the first control of its plan for the
-whole 0.25 s (a zero-order hold, as a 4 Hz controller would). The speed change between two
-controls stays within what the limits allow over 0.2 s, hence over 0.25 s too.
+Control period: CrowdNav's time step is 0.25 s, our horizon step 0.2 s (docs/method.md section
+2). The loop runs at 0.25 s and the robot holds its plan's first control over each step (a
+zero-order hold, as a 4 Hz controller would), within what the limits allow over 0.2 s.
 
 Outcomes as CrowdNav decides them: a collision is any overlap with a human within a step
 (closest approach of the straight-line relative motion between two states, CrowdNav's check;
@@ -96,8 +93,7 @@ SUCCESS_RADIUS = 0.3
 ROBOT_START = (0.0, -CIRCLE_RADIUS)
 ROBOT_GOAL = (0.0, CIRCLE_RADIUS)
 ORCA_NEIGHBOR_DIST = 10.0
-"""CrowdNav's ORCA parameters for the humans: neighbour distance (m), neighbours, time
-horizons (s) and the 0.01 m added to every radius."""
+"""CrowdNav's ORCA parameters: neighbour distance (m), neighbours, horizons (s), radius pad."""
 ORCA_MAX_NEIGHBORS = 10
 ORCA_TIME_HORIZON = 5.0
 ORCA_TIME_HORIZON_OBST = 5.0
@@ -293,6 +289,8 @@ class CrowdNavSettings:
     """The planners' configuration: ``product`` or ``paper`` (``orca`` and ``cv`` ignore it)."""
     overrides: tuple = ()
     """``(name, value)`` pairs replacing fields of the preset (``--set``)."""
+    sensing: str = "oracle"
+    """``--sensing``: a profile's name or file (:mod:`dsmpepc_nlp.sim.sensing`)."""
 
     def __post_init__(self):
         if self.scene not in SCENES:
@@ -304,7 +302,7 @@ class CrowdNavSettings:
         return {"benchmark": "crowdnav", "scene": self.scene, "setting": self.setting,
                 "humans": self.humans, "solver": self.solver, "n_samples": self.n_samples,
                 "duration": self.duration, "time_step": TIME_STEP,
-                **config_meta(self.preset, self.overrides)}
+                **config_meta(self.preset, self.overrides, self.sensing)}
 
 
 def episode_scenario(settings: CrowdNavSettings, episode: int, seed: int, robot=None):
@@ -349,6 +347,7 @@ def simulate_episode(settings: CrowdNavSettings, variant: str, episode: int, see
 
     loop_config = dataclasses.replace(
         config, horizon=dataclasses.replace(config.horizon, dt=TIME_STEP))
+    kwargs.setdefault("sensing", settings.sensing)
     log = simulate(scenario, loop_config, solver, np.random.default_rng([seed, episode]),
                    planner_factory=factory, outcomes=OutcomeConfig(deadlock=False), **kwargs)
     # The episode's configuration is the one its planner planned with: the method's 0.2 s
@@ -380,7 +379,8 @@ def run_episode(settings: CrowdNavSettings, variant: str, episode: int, seed: in
 
 
 def run_benchmark(settings: CrowdNavSettings, variants, episodes: int, seed: int, out_dir, *,
-                  workers=None, resume=False, overwrite=False, progress=True) -> dict:
+                  workers=None, scheduler=None, resume=False, overwrite=False,
+                  progress=True) -> dict:
     """Every (variant, episode) into ``out_dir/crowdnav.{json,csv}``; the summary.
 
     The first variant's figures are at the top level, every variant's under ``variants``
@@ -393,7 +393,7 @@ def run_benchmark(settings: CrowdNavSettings, variants, episodes: int, seed: int
                         resume=resume, overwrite=overwrite)
     per_variant = run_variants(run_episode, settings, variants, episodes, seed, table,
                                label=f"crowdnav {settings.scene} {settings.setting}",
-                               workers=workers, progress=progress)
+                               workers=workers, scheduler=scheduler, progress=progress)
     summary = dict(per_variant[variants[0]])
     summary.update(scene=settings.scene, setting=settings.setting, solver=settings.solver,
                    seed=seed, variants=per_variant, out=str(Path(out_dir) / "crowdnav.csv"))

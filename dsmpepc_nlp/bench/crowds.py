@@ -306,11 +306,14 @@ class CrowdSettings:
     goal_clear: bool = False
     """Redraw a goal a pedestrian occupies over the window's last second (``--goal-clear``;
     :func:`crossing_scenario`)."""
+    sensing: str = "oracle"
+    """``--sensing``: a profile's name or file (:mod:`dsmpepc_nlp.sim.sensing`)."""
 
     def meta(self) -> dict:
         meta = {"benchmark": "crowd", "scene": self.scene, "solver": self.solver,
                 "n_samples": self.n_samples, "duration": self.duration,
-                "v_limit": self.v_limit, **config_meta(self.preset, self.overrides)}
+                "v_limit": self.v_limit,
+                **config_meta(self.preset, self.overrides, self.sensing)}
         return dict(meta, goal_clear=True) if self.goal_clear else meta
 
 
@@ -333,6 +336,7 @@ def simulate_episode(settings: CrowdSettings, variant: str, episode: int, seed: 
     ``kwargs`` go to the simulator."""
     scenario, draw = episode_scenario(settings, episode, seed)
     rng = np.random.default_rng([seed, episode])
+    kwargs.setdefault("sensing", settings.sensing)
     if variant == "orca":
         return simulate_orca(scenario, PlannerConfig(), rng, **kwargs), draw
     if variant == "cv":
@@ -357,7 +361,8 @@ def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int,
 
 
 def run_benchmark(settings: CrowdSettings, variants, episodes: int, seed: int, out_dir, *,
-                  workers=None, resume=False, overwrite=False, progress=True) -> dict:
+                  workers=None, scheduler=None, resume=False, overwrite=False,
+                  progress=True) -> dict:
     """Every (variant, episode) into ``out_dir/crowd.{json,csv}``; the summary.
 
     The summary has the first variant's figures at the top level (``episodes``,
@@ -369,7 +374,8 @@ def run_benchmark(settings: CrowdSettings, variants, episodes: int, seed: int, o
     table = ResultTable(out_dir, "crowd", ("variant", "episode", "seed"), settings.meta(),
                         resume=resume, overwrite=overwrite)
     per_variant = run_variants(run_episode, settings, variants, episodes, seed, table,
-                               label="crowd", workers=workers, progress=progress)
+                               label="crowd", workers=workers, scheduler=scheduler,
+                               progress=progress)
     summary = dict(per_variant[variants[0]])
     summary.update(scene=settings.scene, seed=seed, variants=per_variant,
                    out=str(Path(out_dir) / "crowd.csv"))

@@ -82,12 +82,15 @@ def robot_with(robot, pairs: tuple):
     return dataclasses.replace(robot, **fields) if fields else robot
 
 
-def config_meta(preset: str, pairs: tuple) -> dict:
-    """What a benchmark table stores of its configuration: the preset and the ``--set`` pairs,
-    each only when given (tables written before either existed keep their meaning)."""
+def config_meta(preset: str, pairs: tuple, sensing: str = "oracle") -> dict:
+    """What a benchmark table stores of its configuration: the preset, the ``--set`` pairs and
+    the sensing profile (``--sensing``), each only when given (tables written before any
+    existed keep their meaning)."""
     meta = {} if preset == "product" else {"preset": preset}
     if pairs:
         meta["overrides"] = {k: v for k, v in pairs}
+    if sensing != "oracle":
+        meta["sensing"] = sensing
     return meta
 
 

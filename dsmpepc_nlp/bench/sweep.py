@@ -57,11 +57,15 @@ class SweepSettings:
     """Start-position noise (m, std) replacing the scenario's own, so seeds differ (None: keep)."""
     preset: str = "product"
     """``product`` or ``paper`` (:data:`~dsmpepc_nlp.bench.params.PRESETS`)."""
+    sensing: str = "oracle"
+    """What the robot senses (``--sensing``): a built-in profile or a profile file
+    (:mod:`dsmpepc_nlp.sim.sensing`); ``oracle``, the truth, by default."""
 
     def meta(self) -> dict:
-        return {"benchmark": "sweep", "variant": self.variant, "solver": self.solver,
+        meta = {"benchmark": "sweep", "variant": self.variant, "solver": self.solver,
                 "n_samples": self.n_samples, "duration": self.duration,
                 "start_noise": self.start_noise, "preset": self.preset}
+        return meta if self.sensing == "oracle" else dict(meta, sensing=self.sensing)
 
 
 def _key_text(params: dict) -> str:
@@ -89,9 +93,11 @@ def run_one(run: dict, settings: SweepSettings, out_dir=None) -> dict:
         solver = named_solver(settings.solver, settings.n_samples)
         rng = np.random.default_rng(run["seed"])
         if variant == "orca":
-            episode = simulate_orca(scenario, config, rng, record_trajectories=False)
+            episode = simulate_orca(scenario, config, rng, record_trajectories=False,
+                                    sensing=settings.sensing)
         else:
-            episode = simulate(scenario, config, solver, rng, record_trajectories=False)
+            episode = simulate(scenario, config, solver, rng, record_trajectories=False,
+                               sensing=settings.sensing)
         metrics = episode_metrics(episode)
         outcomes = [m["outcome"] for m in metrics]
         times = [m["time_to_goal"] for m in metrics if m["outcome"] == "success"]

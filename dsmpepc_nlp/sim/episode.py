@@ -30,7 +30,7 @@ _ARRAYS = (
     "times", "states", "active", "goals", "z", "cost_total", "cost_terms", "survivability",
     "ttg", "ttc_terminal", "status", "nit", "plan_time", "n_starts", "plan_poses",
     "ped_positions", "ped_velocities", "ped_radii", "grid_occupied", "grid_resolution",
-    "grid_origin",
+    "grid_origin", "believed_states",
 )
 
 
@@ -76,6 +76,9 @@ class Episode:
         One of :data:`OUTCOMES` per robot.
     outcome_times : list of float
         When each outcome was decided, s.
+    believed_states : ndarray, (R, K, 5) or None
+        Under a sensing profile (``meta["sensing"]``), the state each robot believed it was in
+        when it planned (NaN when it did not); None when it was told the truth.
     meta : dict
         JSON-able: scenario name, map path, variant, solver, seed, dt, robot names, footprints,
         goal kinds, parked robots, the planner configuration.
@@ -106,6 +109,7 @@ class Episode:
     outcome_times: list
     meta: dict
     samples: dict = field(default_factory=dict)
+    believed_states: np.ndarray | None = None
 
     term_names = TERM_NAMES
     statuses = STATUSES

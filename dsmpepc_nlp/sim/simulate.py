@@ -39,6 +39,8 @@ from .outcomes import (
     outcome,
     window_progress,
 )
+from .senses import Senses
+from .sensing import SensingProfile, load_profile
 from .types import FixedGoal, Scenario
 
 _footprint_gap = footprint_gap  # the old private name
@@ -89,7 +91,7 @@ class _Loop:
     """The state of one episode while it runs: robots, pedestrians, outcomes and history."""
 
     def __init__(self, scenario: Scenario, config: PlannerConfig, solver: SolverConfig, rng,
-                 planner_factory, rules: OutcomeConfig):
+                 planner_factory, rules: OutcomeConfig, sensing: SensingProfile | None = None):
         self.scenario, self.dt, self.rules = scenario, config.horizon.dt, rules
         self.agents = agents = scenario.agents
         self.n = len(agents)
@@ -108,6 +110,12 @@ class _Loop:
                 prepare(max_objects=objects)
         self.footprints = [np.array(c.robot.footprint) for c in self.configs]
         self.states = start_states(scenario, rng)  # noise first, then the free-space checks
+        # The senses draw after the starts, so a profile's episode starts where oracle's does.
+        self.sensing = sensing if sensing is not None and not sensing.is_oracle else None
+        self.senses = None if self.sensing is None else [
+            Senses(self.sensing, c, scenario.grid, np.random.default_rng(rng.integers(2**63)))
+            for c in self.configs]
+        self.hist_believed = []
         self.base_world = World(scenario.grid)
         self.parked = [DynamicObstacle.robot(p.pose, (0.0, 0.0), p.footprint)
                        for p in scenario.parked]
@@ -194,14 +202,21 @@ class _Loop:
         ped_pos, ped_vel = self.hist_ped[-1]
         ped_obs = [DynamicObstacle.pedestrian(p, v, ped.radius)
                    for p, v, ped in zip(ped_pos, ped_vel, self.peds)]
-        plans = {}
+        plans, believed = {}, {}
+        self.hist_believed.append(believed)
         for i in range(self.n):
             if self.outcomes[i] is not None:
                 continue
             others = [robot_obstacle(self.states[j], self.footprints[j]) for j in range(self.n)
                       if j != i]
-            world = self.base_world.with_obstacles(ped_obs + others + self.parked)
-            state = RobotState(*(float(v) for v in self.states[i]))
+            if self.senses is None:
+                world = self.base_world.with_obstacles(ped_obs + others + self.parked)
+                state = RobotState(*(float(v) for v in self.states[i]))
+            else:
+                people = (ped_pos, ped_vel, np.array([p.radius for p in self.peds]))
+                state, world = self.senses[i].perceive(self.times[-1], self.states[i], people,
+                                                       others + self.parked)
+                believed[i] = np.array([state.x, state.y, state.phi, state.v, state.omega])
             sample = k in record_samples
             fixed = self.agents[i].goal.kind == "fixed"
             dock = fixed or self.configs[i].docking.follow
@@ -217,7 +232,8 @@ class _Loop:
     def step(self, k, plans) -> None:
         """Execute the first step of every plan, move the pedestrians, decide outcomes."""
         for i, plan in plans.items():
-            v, omega = plan.control
+            v, omega = plan.control if self.senses is None else \
+                self.senses[i].execute(plan.control, self.states[i])
             x, y, phi = arc_step(self.states[i][:3], v, omega, self.dt)
             self.states[i] = np.array([x, y, phi, v, omega], dtype=float)
         t_next = (k + 1) * self.dt
@@ -255,7 +271,8 @@ def simulate(scenario: Scenario, config: PlannerConfig, solver: SolverConfig, rn
              record_trajectories: bool = True, record_samples=(), max_samples: int = 512,
              progress=None,
              planner_factory: Callable[..., PlanningPolicy] = Planner,
-             outcomes: OutcomeConfig | None = None) -> Episode:
+             outcomes: OutcomeConfig | None = None,
+             sensing: SensingProfile | str | None = None) -> Episode:
     """Run ``scenario`` in closed loop with every agent planning by ``config`` and ``solver``.
 
     Parameters
@@ -282,6 +299,10 @@ def simulate(scenario: Scenario, config: PlannerConfig, solver: SolverConfig, rn
     outcomes : OutcomeConfig, optional
         The outcome rules' numbers and the deadlock rule's switch (docs/method.md section 7.3;
         CrowdNav's protocol turns the rule off: a stalled robot times out).
+    sensing : SensingProfile or str, optional
+        What the robots sense and how their commands run (:mod:`.sensing`; a built-in name or
+        a profile file); default ``oracle``, the truth. Its draws come from ``rng`` after the
+        start perturbations.
 
     Returns
     -------
@@ -293,7 +314,8 @@ def simulate(scenario: Scenario, config: PlannerConfig, solver: SolverConfig, rn
     n_cycles = max(1, int(math.ceil(scenario.duration / config.horizon.dt - 1e-9)))
     record_samples = set(int(k) for k in record_samples)
     loop = _Loop(scenario, config, solver, rng, planner_factory,
-                 OutcomeConfig() if outcomes is None else outcomes)
+                 OutcomeConfig() if outcomes is None else outcomes,
+                 None if sensing is None else load_profile(sensing))
     log = _Log(loop.n, config.horizon.n_steps)
     samples = {}
     loop.decide(0.0, loop.hist_ped[0][0])
@@ -326,6 +348,11 @@ def _episode(loop: _Loop, arrays: dict, samples: dict, config, solver) -> Episod
                    for p in scenario.parked],
         "config": config_to_dict(config),
     }
+    extra = {}
+    if loop.senses is not None:
+        meta["sensing"] = loop.sensing.as_dict()
+        extra["believed_states"] = _believed(loop)
+        meta["sensing_counts"] = [dict(s.counts) for s in loop.senses]
     n_times = len(loop.times)
     return Episode(
         times=np.array(loop.times), states=np.array(loop.hist_states),
@@ -337,4 +364,14 @@ def _episode(loop: _Loop, arrays: dict, samples: dict, config, solver) -> Episod
         grid_resolution=None if grid is None else grid.resolution,
         grid_origin=None if grid is None else np.array(grid.origin),
         outcomes=loop.outcomes, outcome_times=loop.outcome_times, meta=meta, samples=samples,
-        **arrays)
+        **arrays, **extra)
+
+
+def _believed(loop: _Loop) -> np.ndarray:
+    """(R, K, 5): the state each robot believed it was in when it planned; NaN when it did
+    not plan."""
+    out = np.full((loop.n, len(loop.hist_believed), 5), np.nan)
+    for k, believed in enumerate(loop.hist_believed):
+        for i, state in believed.items():
+            out[i, k] = state
+    return out
