@@ -13,6 +13,7 @@ from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, OccupancyGrid
 from dsmpepc_nlp.sim.scenario import load_scenario
+from dsmpepc_nlp.sim.senses import Senses, circle_ranges
 from dsmpepc_nlp.sim.sensing import (
     BUILTIN_PROFILES,
     DetectorSettings,
@@ -21,7 +22,6 @@ from dsmpepc_nlp.sim.sensing import (
     SensingProfile,
     load_profile,
 )
-from dsmpepc_nlp.sim.senses import Senses, circle_ranges
 from dsmpepc_nlp.sim.simulate import simulate
 
 SAMPLER = SolverConfig.sampling(n_samples=64)
