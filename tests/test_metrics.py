@@ -93,10 +93,11 @@ def test_smoothness_of_a_constant_and_of_a_bang_command():
     assert alpha == pytest.approx(2.0 / 10)
 
 
-def test_plan_time_median_and_p95():
-    median, p95 = plan_times(straight_episode(), 0)
+def test_plan_time_median_p95_p99_and_max():
+    median, p95, p99, longest = plan_times(straight_episode(), 0)
     assert median == pytest.approx(0.5)
     assert p95 == pytest.approx(0.95)
+    assert p99 == pytest.approx(0.99) and longest == pytest.approx(1.0)
 
 
 def test_following_distance_only_for_follow_goals():

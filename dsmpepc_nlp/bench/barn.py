@@ -305,6 +305,7 @@ def run_world(index: int, settings: BarnSettings, out_dir=None) -> dict:
             path_length=m["path_length"], reference_path_length=world.path_length,
             min_static_clearance=m["min_static_clearance"],
             plan_time_median=m["plan_time_median"], plan_time_p95=m["plan_time_p95"],
+            plan_time_p99=m["plan_time_p99"], plan_time_max=m["plan_time_max"],
             fallback_plans=m["fallback_plans"], cycles=m["cycles"],
             episode_file=keep_failure(episode, out_dir, f"barn-{index}-{settings.variant}-"
                                                         f"{settings.solver}"))

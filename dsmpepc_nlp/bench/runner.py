@@ -129,10 +129,12 @@ def mean(rows, key: str, pick=None) -> float:
 
 def plan_time_summary(rows) -> dict:
     """``plan_time_median``: the median over rows of each row's median plan time;
-    ``plan_time_p95``: the 95th percentile over rows of each row's 95th percentile (s; NaN
-    without plans). Rows are episodes, runs or worlds."""
+    ``plan_time_p95`` and ``plan_time_p99``: the 95th and 99th percentiles over rows of each
+    row's own; ``plan_time_max``: the longest plan of all (s; NaN without plans, and for p99
+    and max with rows written before they were recorded). Rows are episodes, runs or worlds."""
     out = {}
-    for key, q in (("plan_time_median", 50), ("plan_time_p95", 95)):
+    for key, q in (("plan_time_median", 50), ("plan_time_p95", 95), ("plan_time_p99", 99),
+                   ("plan_time_max", 100)):
         values = [r[key] for r in rows if r.get(key) is not None and not math.isnan(r[key])]
         out[key] = float(np.percentile(values, q)) if values else math.nan
     return out

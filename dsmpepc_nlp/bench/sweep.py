@@ -110,6 +110,8 @@ def run_one(run: dict, settings: SweepSettings, out_dir=None) -> dict:
             min_dynamic_clearance=float(min(m["min_dynamic_clearance"] for m in metrics)),
             plan_time_median=float(np.nanmedian([m["plan_time_median"] for m in metrics])),
             plan_time_p95=float(np.nanpercentile([m["plan_time_p95"] for m in metrics], 95)),
+            plan_time_p99=float(np.nanpercentile([m["plan_time_p99"] for m in metrics], 99)),
+            plan_time_max=float(np.nanmax([m["plan_time_max"] for m in metrics])),
             episode_file=keep_failure(episode, out_dir, _stem(run, variant)))
     except Exception as exc:
         row.update(status="failed", message=f"{type(exc).__name__}: {exc}")

@@ -269,17 +269,19 @@ def spl(episode, robot: int) -> float:
 
 
 def plan_times(episode, robot: int) -> tuple:
-    """``(median, 95th percentile)`` wall time of the robot's plans, s."""
+    """``(median, 95th percentile, 99th percentile, maximum)`` wall time of the robot's plans,
+    s."""
     times = episode.plan_time[robot][episode.active[robot]]
     if times.size == 0:
-        return (math.nan, math.nan)
-    return (float(np.median(times)), float(np.percentile(times, 95)))
+        return (math.nan,) * 4
+    return (float(np.median(times)), float(np.percentile(times, 95)),
+            float(np.percentile(times, 99)), float(np.max(times)))
 
 
 def robot_metrics(episode, robot: int) -> dict:
     """Every metric of one robot, as a flat JSON-able dict (NaN for "not applicable")."""
     alpha, jerk = smoothness(episode, robot)
-    median, p95 = plan_times(episode, robot)
+    median, p95, p99, longest = plan_times(episode, robot)
     statuses = episode.status_names(robot)
     return {
         "robot": episode.meta["robots"][robot],
@@ -299,6 +301,8 @@ def robot_metrics(episode, robot: int) -> dict:
         "following_distance": following_distance(episode, robot),
         "plan_time_median": median,
         "plan_time_p95": p95,
+        "plan_time_p99": p99,
+        "plan_time_max": longest,
         "cycles": int(np.sum(episode.active[robot])),
         "nlp_plans": statuses.count("nlp"),
         "fallback_plans": statuses.count("sampling-fallback") + statuses.count("stopped"),
