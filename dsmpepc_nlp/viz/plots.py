@@ -178,6 +178,7 @@ def episode_figure(episode, *, cycle: int | None = None, path=None):
     fig, ax = plt.subplots(figsize=(8.5, 6))
     k = episode.n_cycles if cycle is None else cycle
     draw_cycle(ax, episode, k, samples=False, full_paths=True)
+    draw_belief(ax, episode, k)
     label = "sampled trajectories (recorded cycles)"
     for poses, _ in episode.samples.values():  # every recorded evaluation, grey
         for p in poses:
@@ -196,6 +197,22 @@ def episode_figure(episode, *, cycle: int | None = None, path=None):
     return _finish(fig, path)
 
 
+def draw_belief(ax, episode, cycle: int) -> None:
+    """Under a sensing profile, where each robot believed it was at every plan up to
+    ``cycle`` (dashed, in the robot's colour) beside the true path the frame draws."""
+    believed = getattr(episode, "believed_states", None)
+    if believed is None:
+        return
+    label = f"believed path ({episode.meta.get('sensing', {}).get('name', 'sensed')})"
+    for i in range(episode.n_robots):
+        path = believed[i, :cycle]
+        path = path[np.isfinite(path[:, 0])]
+        if len(path):
+            ax.plot(path[:, 0], path[:, 1], color=_robot_colour(i), lw=1.0, ls="--",
+                    alpha=0.8, zorder=4, label=label)
+            label = None
+
+
 def _finish(fig, path):
     if path is None:
         return fig
@@ -212,6 +229,7 @@ def compare_figure(episodes: dict, *, path=None):
     fig, axes = plt.subplots(1, n, figsize=(5.5 * n, 5), squeeze=False, layout="constrained")
     for ax, (name, episode) in zip(axes[0], episodes.items()):
         draw_cycle(ax, episode, episode.n_cycles, samples=False, title=False, full_paths=True)
+        draw_belief(ax, episode, episode.n_cycles)
         outcomes = outcome_caption(episode).removeprefix("outcome: ")
         ax.set_title(f"{name}: {outcomes}", fontsize=8, wrap=True)
     # One frame for every panel (each drew its own round what it holds), so the runs of one
