@@ -32,6 +32,7 @@ from ..core.grid import OccupancyGrid
 from . import raycast
 from .raycast import cell_index, traverse, window_fraction
 from .scan import LaserScan
+from .sensed_grid import SensedGrid
 
 UNKNOWN, FREE, OCCUPIED = 0, 1, 2
 """A cell's state in :attr:`LocalMap._state` (int8)."""
@@ -297,12 +298,10 @@ class LocalMap:
             occupied |= prior[0]
         return occupied
 
-    def grid(self) -> OccupancyGrid:
-        """The window as the planner's grid: ``occupied[iy, ix]``, origin :attr:`origin`.
-
-        The same object as the last call's when nothing it shows has changed (no update, or
-        updates that changed no cell it hands out and did not roll the window).
-        """
+    def grid(self) -> SensedGrid:
+        """The window as the planner's grid (``occupied[iy, ix]``, origin :attr:`origin`) with
+        the cells seen free (:class:`~.sensed_grid.SensedGrid`); the last call's object when no
+        cell it hands out has changed and the window did not roll."""
         served = self._served
         if served is not None and served[0] == self._version:
             return served[2]
@@ -310,8 +309,10 @@ class LocalMap:
         if (served is not None and np.array_equal(served[1], self._corner)
                 and np.array_equal(served[2].occupied, occupied)):
             grid = served[2]
+            grid.refresh(self._seen_free)          # more seen, the same map: keep its caches
         else:
-            grid = OccupancyGrid.derived(occupied, self._config.resolution, self.origin)
+            grid = SensedGrid.build(occupied, self._config.resolution, self.origin,
+                                    self._seen_free)
         self._served = (self._version, self._corner.copy(), grid)
         return grid
 

@@ -80,13 +80,14 @@ def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) 
     if stall.back_up <= 0.0:
         return None
     arrival = arrival_time(plan, cycle.goal, goal_tolerance, config)
-    ways = Ways(state, config)
+    ways = Ways(state, config, cycle.world)
     cleared = clearest(plan, state, cycle, arrival, ways)
     if cleared is not None:
         return cleared
     threat = threatened(plan, config, arrival)
     stalled = level >= stall.back_up_level
-    reverse = back_up_speed(config) > 0.0 and stands(plan, config) and (stalled or threat)
+    reverse = (back_up_speed(config) > 0.0 and stands(plan, config) and (stalled or threat)
+               and len(ways.reverses) > 0)
     dodge = stall.dodge and threatened(plan, config, min(stall.dodge_within, arrival))
     # A docked plan already heads for the goal, turning in place first where it must.
     turn = (level >= stall.turn_level and stall.turn_to_goal > 0.0
@@ -127,7 +128,7 @@ def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) 
                f"struck{soon} (survival {survival_within(plan, config, within):.2f} < "
                f"{stall.back_up_threat:g})")
     if kind == "reverse":
-        what = reverse_named(first, config)
+        what = reverse_named(int(ways.reverse_rows[first]), config)
     elif kind == "dodge":
         what = dodge_named(chosen)
     message = (f"{why} (exact cost {plan.fun:.3f}): {what} (exact cost {total[best]:.3f}); "

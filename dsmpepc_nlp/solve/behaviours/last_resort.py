@@ -50,9 +50,9 @@ def clearest(plan: Plan, state, cycle, arrival: float = math.inf,
     survival = survival_within(plan, config, within)
     if survival >= stall.doomed_below:
         return None
-    ways = ways or Ways(state, config)
+    ways = ways or Ways(state, config, cycle.world)
     dodges = ways.dodges
-    reverses = [ways.reverses] if back_up_speed(config) > 0.0 else []   # a robot that reverses
+    reverses = [ways.reverses] if back_up_speed(config) > 0.0 and len(ways.reverses) else []
     candidates = stacked([plan.trajectory, dodges, *reverses])
     gaps = clearance(candidates, cycle, stall.clearance_within)
     gaps = np.where(np.isnan(gaps), -np.inf, gaps)           # a gap not measured keeps nothing
@@ -70,7 +70,8 @@ def clearest(plan: Plan, state, cycle, arrival: float = math.inf,
             return None
     chosen, way = candidates[best], best - 1 if still else best     # way: without the stop
     what = ("braking to a stop" if still and best == 1 else dodge_named(chosen)
-            if way <= len(dodges) else reverse_named(way - 1 - len(dodges), config))
+            if way <= len(dodges)
+            else reverse_named(int(ways.reverse_rows[way - 1 - len(dodges)]), config))
     how = (f"every way touches someone within {stall.clearance_within:g} s: the way that "
            f"drives least toward whoever it touches, {what}" if still else
            f"the clearest way over {stall.clearance_within:g} s, {what}")

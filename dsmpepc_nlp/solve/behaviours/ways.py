@@ -106,13 +106,47 @@ def stacked(trajectories) -> Trajectory:
 
 class Ways:
     """This cycle's dodges and reverses from ``state``, each built once, when first read (a
-    doomed plan that stays the clearest meets the same ways again in :func:`consider`)."""
+    doomed plan that stays the clearest meets the same ways again in :func:`consider`).
 
-    def __init__(self, state, config: PlannerConfig):
-        self.state, self.config = state, config
+    With ``world`` given, :attr:`reverses` keeps only the reverses that stay in space the
+    world's map has seen free (:func:`reverses_seen`; every one with a map that knows nothing
+    of seeing), and :attr:`reverse_rows` says which of :func:`back_up_trajectories` they are.
+    """
+
+    def __init__(self, state, config: PlannerConfig, world=None):
+        self.state, self.config, self.world = state, config, world
 
     dodges = cached_property(lambda self: dodge_trajectories(self.state, self.config))
-    reverses = cached_property(lambda self: back_up_trajectories(self.state, self.config))
+
+    @cached_property
+    def _reverses(self) -> tuple:
+        every = back_up_trajectories(self.state, self.config)
+        rows = np.flatnonzero(reverses_seen(every, self.world, self.config))
+        return every[rows], rows
+
+    reverses = property(lambda self: self._reverses[0])
+    reverse_rows = property(lambda self: self._reverses[1])
+
+
+def reverses_seen(trajectories: Trajectory, world, config: PlannerConfig) -> np.ndarray:
+    """bool per trajectory of the batch: whether, at every pose it reaches while reversing,
+    each footprint circle's centre and its rearmost point lie in cells the map has seen free
+    (``world.grid.is_seen_free``, a :class:`~dsmpepc_nlp.perception.SensedGrid`). All True
+    without a world or with a map that knows nothing of seeing (a map given in advance)."""
+    check = getattr(getattr(world, "grid", None), "is_seen_free", None)
+    n = len(trajectories.z)
+    if check is None or n == 0:
+        return np.ones(n, dtype=bool)
+    circles = np.asarray(config.robot.footprint, dtype=float)
+    poses = trajectories.poses[:, 1:]                                            # (n, N, 3)
+    heading = np.stack([np.cos(poses[..., 2]), np.sin(poses[..., 2])], axis=-1)
+    normal = np.stack([-heading[..., 1], heading[..., 0]], axis=-1)
+    centres = (poses[..., None, :2] + circles[:, 0, None] * heading[..., None, :]
+               + circles[:, 1, None] * normal[..., None, :])                     # (n, N, C, 2)
+    rear = centres - circles[:, 2, None] * heading[..., None, :]
+    seen = check(centres) & check(rear)                                          # (n, N, C)
+    reversing = np.asarray(trajectories.v) < 0.0                                 # (n, N)
+    return np.all(seen.all(axis=-1) | ~reversing, axis=1)
 
 
 

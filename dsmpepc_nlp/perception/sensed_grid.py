@@ -1,0 +1,65 @@
+"""A grid built from a sensor that also knows which of its cells the sensor has seen free.
+
+:class:`SensedGrid` is an :class:`~dsmpepc_nlp.core.grid.OccupancyGrid` (the planner reads it
+as any map) with one more question it can answer, :meth:`SensedGrid.is_seen_free`: whether a
+beam has crossed the cell at a point. Unknown space is handed to the planner as free (or
+occupied, ``LocalMapConfig.unknown``) for its costs and its navigation function; the moves
+that the pose-following law cannot make (the stall ladder's reverses) ask this grid first and
+are not offered into space no beam has crossed, such as the blind sector behind a 270-degree
+lidar (:func:`dsmpepc_nlp.solve.behaviours.ways.reverses_seen`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.grid import OccupancyGrid
+
+
+class SensedGrid(OccupancyGrid):
+    """An :class:`OccupancyGrid` with the mask of the cells a sensor has seen free.
+
+    Built by :meth:`dsmpepc_nlp.perception.LocalMap.grid`; ``seen[iy, ix]`` is aligned with
+    ``occupied``. The mask may grow while the occupancy stays the same (a beam crossing an
+    unknown cell that was already handed out as free), so the local map refreshes it in place
+    (:meth:`refresh`) rather than handing out a new grid whose signed distance and navigation
+    function would be computed again.
+    """
+
+    @classmethod
+    def build(cls, occupied, resolution, origin, seen) -> SensedGrid:
+        """The grid of ``occupied`` with the mask ``seen`` (copied), shape (ny, nx) each."""
+        grid = cls.derived(occupied, resolution, origin)
+        grid._seen = np.array(seen, dtype=bool)
+        if grid._seen.shape != grid.shape:
+            raise ValueError(f"seen has shape {grid._seen.shape}: expected {grid.shape}")
+        return grid
+
+    def refresh(self, seen) -> None:
+        """Replace the mask by ``seen`` (same shape), in place."""
+        np.copyto(self._seen, np.asarray(seen, dtype=bool))
+
+    @property
+    def seen(self) -> np.ndarray:
+        """Read-only copy of the mask, bool (ny, nx)."""
+        seen = self._seen.copy()
+        seen.setflags(write=False)
+        return seen
+
+    def is_seen_free(self, points) -> np.ndarray:
+        """Whether a beam has crossed the cell at each of ``points`` (..., 2), bool (...);
+        False outside the grid (never seen)."""
+        pts = np.asarray(points, dtype=float)
+        cells = np.floor((pts - self.origin) / self.resolution)
+        ny, nx = self.shape
+        finite = np.all(np.isfinite(cells), axis=-1)
+        cells = np.where(np.isfinite(cells), cells, -1.0)
+        inside = finite & (cells[..., 0] >= 0) & (cells[..., 0] < nx) & (cells[..., 1] >= 0) \
+            & (cells[..., 1] < ny)
+        result = np.zeros(pts.shape[:-1], dtype=bool)
+        index = cells[inside].astype(np.intp)
+        result[inside] = self._seen[index[:, 1], index[:, 0]]
+        return result
+
+
+__all__ = ["SensedGrid"]
