@@ -59,6 +59,18 @@ def finite_vector(name, value, size, bound=math.inf):
     return arr
 
 
+def finite_number(name, value, what: str = "a finite number") -> float:
+    """``value`` as a finite float (not a bool); InputError naming ``name`` and ``what`` is
+    allowed otherwise."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        x = math.nan
+    if isinstance(value, bool) or not math.isfinite(x):
+        raise InputError(f"{name}={shown(value)}: expected {what}")
+    return x
+
+
 def number_in(name, value, low, high):
     """``value`` as a float in ``[low, high]``; InputError naming ``name`` otherwise."""
     try:

@@ -9,26 +9,18 @@ are dropped and counted by :meth:`LaserScan.validity`.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.errors import MAX_COORDINATE, InputError, finite_vector, shown
+from ..core.errors import MAX_COORDINATE, InputError, finite_number, finite_vector, shown
 
 DROP_REASONS = ("not_a_number", "below_range_min", "above_range_max")
 """Why a range value is dropped: NaN; below ``range_min`` (negatives and ``-inf`` included);
 finite and above ``range_max``."""
 
 
-def _finite(name, value) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        x = math.nan
-    if isinstance(value, bool) or not math.isfinite(x):
-        raise InputError(f"{name}={shown(value)}: expected a finite number")
-    return x
+_finite = finite_number
 
 
 def _readonly(arr):

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from ..core.errors import InputError, shown
+from ..core.errors import InputError, finite_number, shown
 from ..core.world import DynamicObstacle
 from . import kalman
 from .detections import Detections, TrackerConfig
@@ -174,12 +174,7 @@ class PeopleTracker:
         state = self._state
         confirmed = state["confirmed"]
         if now is not None:
-            try:
-                now_value = float(now)
-            except (TypeError, ValueError):
-                now_value = math.nan
-            if isinstance(now, bool) or not math.isfinite(now_value):
-                raise InputError(f"now={shown(now)}: expected a finite time (s) or None")
+            now_value = finite_number("now", now, "a finite time (s) or None")
         if not np.any(confirmed):
             return []
         ahead = 0.0 if now is None else now_value - self._stamp
