@@ -206,3 +206,35 @@ def test_a_sensed_episode_plans_on_belief_and_logs_it(profile, tmp_path):
         assert not np.allclose(believed[0, active, :2], episode.states[0, :-1][active, :2])
     loaded = type(episode).load(episode.save(tmp_path / "e.npz"))
     assert np.array_equal(loaded.believed_states, believed, equal_nan=True)
+
+
+def test_a_collision_with_what_the_robot_never_perceived_is_named():
+    lidar = SensingProfile("lidar", lidar=LidarSettings(range_noise=0.0))
+    senses = _senses(lidar, _walled(1.2))
+    state = np.array([1.0, 5.0, 0.0, 0.0, 0.0])
+    centres, radii = np.array([[1.0, 5.0]]), np.array([0.3])
+    nobody = (np.zeros((0, 2)), np.zeros(0))
+    assert senses.perceived(state, centres, radii, *nobody) == {"touched": ["map"],
+                                                                "believed": False}
+    senses.perceive(0.0, state, (np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0)), [])
+    assert senses.perceived(state, centres, radii, *nobody)["believed"]     # now it saw it
+    tracked = _senses(SensingProfile("tracked", detector=DetectorSettings()))
+    person = (np.array([[1.3, 5.0]]), np.array([0.3]))
+    assert tracked.perceived(state, centres, radii, *person) == {"touched": ["person"],
+                                                                 "believed": False}
+    told = _senses(lidar)                     # people are told under the lidar profile
+    assert told.perceived(state, centres, radii, *person)["believed"]
+
+
+def test_the_failure_classifier_reads_what_the_robot_believed():
+    from dsmpepc_nlp.bench import failures
+
+    scenario = dataclasses.replace(load_scenario("hall"), duration=0.6)
+    episode = simulate(scenario, PlannerConfig(), SAMPLER, np.random.default_rng(2),
+                       sensing="tracked")
+    episode.outcomes[0] = "collision"
+    episode.meta["perception"] = [{"touched": ["person"], "believed": False}]
+    found = failures.classify(episode, 0)
+    assert found.name == "not-perceived" and found.evidence["perceived_touched"] == "person"
+    episode.meta["perception"] = [{"touched": ["person"], "believed": True}]
+    assert failures.classify(episode, 0).name != "not-perceived"

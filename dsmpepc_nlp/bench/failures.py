@@ -4,6 +4,11 @@
 returns a :class:`FailureClass`: the class's name, the cycle to look at and the numbers the
 rules used. The rules, in the order they are tried (the first that holds names the class):
 
+``not-perceived``
+    Under a sensing profile (``meta["perception"]``), a collision with something that was not
+    in the world the robot believed at its last plan: a map cell never marked there, or a
+    person with no track within half a metre (:meth:`~dsmpepc_nlp.sim.senses.Senses.perceived`).
+    A failure of perception, not of planning.
 ``appeared-in-reach``
     The outcome is a collision with a pedestrian whose track began (who came on stage from
     ``OFFSTAGE``, in the ETH/UCY replays: where the annotation starts) less than
@@ -61,7 +66,7 @@ from ..sim.metrics import collision_kind, contact_approach_speed, run_length
 from ..sim.outcomes import OutcomeConfig
 from .crowd_rows import APPEARED, contact_age, footprint_core, goal_covered, off_stage
 
-CLASSES = ("appeared-in-reach", "at-fault", "struck-moving", "struck-stopped",
+CLASSES = ("not-perceived", "appeared-in-reach", "at-fault", "struck-moving", "struck-stopped",
            "goal-occupied", "stalled-near-goal-person", "stalled-beside-person",
            "stalled-in-gap", "stalled-near-goal", "stalled-open", "oscillating", "wandering",
            "slow")
@@ -163,6 +168,11 @@ def _collision(episode, robot, stop) -> tuple:
                 "robot_speed": speed, "stopped_speed": STOPPED_SPEED,
                 "approach_speed": contact_approach_speed(episode, robot),
                 **_touched(episode, robot, k), **_appeared(episode, robot)}
+    perceived = (episode.meta.get("perception") or [None] * episode.n_robots)[robot]
+    if perceived is not None:
+        evidence["perceived_touched"] = ",".join(perceived["touched"])
+        if not perceived["believed"]:
+            return "not-perceived", evidence
     if evidence.get("contact_age", math.inf) < APPEARED:
         return "appeared-in-reach", evidence
     if kind == "at-fault":

@@ -103,7 +103,8 @@ class Senses:
         grid = self.grid
         if self.local_map is not None:
             grid = self._mapped(t, state, believed, positions, radii, others, walkers + moved)
-        return RobotState(*(float(v) for v in believed)), World(grid, walkers + moved)
+        self.last_world = World(grid, walkers + moved)
+        return RobotState(*(float(v) for v in believed)), self.last_world
 
     def to_believed(self, points, state) -> np.ndarray:
         """World ``points`` (..., 2) as the robot at the true ``state`` places them: relative to
@@ -231,6 +232,36 @@ class Senses:
             stamp, found, found_radii = self.pending.popleft()
             self.tracker.update(Detections(found, stamp, radii=found_radii))
         return self.tracker.obstacles(now=t)
+
+    # -- what it missed ----------------------------------------------------------------------
+
+    def perceived(self, state, centres, radii, ped_pos, ped_radii) -> dict:
+        """At a collision of the robot at the true ``state`` (footprint ``centres`` (C, 2),
+        ``radii`` (C,)): what it touched (``map`` or ``person``) and whether that was in the
+        world it believed at its last plan (``believed``): the map's touching cells occupied
+        within a cell of where they are, the person within half a metre of a track. True for
+        what the robot was told (the map without a lidar, people without a detector)."""
+        world = getattr(self, "last_world", None)
+        touched = {}
+        if self.grid is not None and np.any(self.grid.distance(centres) < radii):
+            touched["map"] = True
+            if self.local_map is not None:
+                believed = None if world is None else world.grid
+                hit = centres[self.grid.distance(centres) < radii]
+                touched["map"] = believed is not None and bool(np.any(believed.distance(
+                    self.to_believed(hit, state)) < radii.max() + believed.resolution))
+        gaps = np.linalg.norm(centres[:, None] - ped_pos.reshape(-1, 2)[None], axis=-1) \
+            - radii[:, None] - np.asarray(ped_radii).reshape(-1)[None]
+        for k in np.flatnonzero(np.any(gaps < 0.0, axis=0)):
+            believed = True
+            if self.tracker is not None:
+                where = self.to_believed(ped_pos[k], state)
+                centres_seen = [] if world is None else [
+                    o.centers[0] for o in world.obstacles if o.kind == "pedestrian"]
+                believed = bool(centres_seen) and float(np.min(np.linalg.norm(
+                    np.array(centres_seen) - where, axis=1))) < ped_radii[k] + 0.5
+            touched["person"] = touched.get("person", True) and believed
+        return {"touched": sorted(touched), "believed": all(touched.values())}
 
     # -- the plant ---------------------------------------------------------------------------
 

@@ -116,6 +116,7 @@ class _Loop:
             Senses(self.sensing, c, scenario.grid, np.random.default_rng(rng.integers(2**63)))
             for c in self.configs]
         self.hist_believed = []
+        self.perception = [None] * self.n      # at a collision: what it touched, believed?
         self.base_world = World(scenario.grid)
         self.parked = [DynamicObstacle.robot(p.pose, (0.0, 0.0), p.footprint)
                        for p in scenario.parked]
@@ -193,6 +194,10 @@ class _Loop:
             if result is not None:
                 new[i] = result
         for i, result in new.items():
+            if result == "collision" and self.senses is not None:
+                self.perception[i] = self.senses[i].perceived(
+                    self.states[i], points[i], radii[i], ped_pos,
+                    np.array([p.radius for p in self.peds]))
             self.outcomes[i] = result
             self.outcome_times[i] = t
             self.states[i][3:] = 0.0
@@ -353,6 +358,7 @@ def _episode(loop: _Loop, arrays: dict, samples: dict, config, solver) -> Episod
         meta["sensing"] = loop.sensing.as_dict()
         extra["believed_states"] = _believed(loop)
         meta["sensing_counts"] = [dict(s.counts) for s in loop.senses]
+        meta["perception"] = loop.perception
     n_times = len(loop.times)
     return Episode(
         times=np.array(loop.times), states=np.array(loop.hist_states),
