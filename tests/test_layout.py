@@ -75,14 +75,15 @@ def test_ruff_is_clean():
     assert done.returncode == 0, done.stdout[-2000:]
 
 
-def test_readme_layout_table_names_every_module():
-    """The README's layout table and the tree agree, module for module."""
-    readme = (ROOT / "README.md").read_text()
-    table = readme[readme.index("## Layout"):]
-    table = table[:table.index("\n## ", 1)]
+def test_design_layout_table_names_every_module():
+    """The layout table of docs/design.md and the tree agree, module for module."""
+    design = (ROOT / "docs" / "design.md").read_text()
+    table = design[design.index("\n## Layout\n"):]
+    end = table.find("\n## ", 1)
+    table = table if end < 0 else table[:end]
     # A module of a sub-package is named with its folder (`graph/layout.py`); tools and tests
     # named beside the table are not modules.
     named = set(re.findall(r"`(?:(?!tools/|tests/)[a-z_]+/)?([a-z_]+\.py)`", table))
     modules = {p.name for p in _modules() if p.name != "__init__.py"}
-    assert modules - named == set(), "modules the README's layout table does not name"
-    assert named - modules == set(), "names in the README's layout table with no module"
+    assert modules - named == set(), "modules the design's layout table does not name"
+    assert named - modules == set(), "names in the design's layout table with no module"

@@ -4,7 +4,7 @@ Prints, on the crowded demo scene (map + 12 pedestrians), the error of the globa
 against the exact cost at random z (exact and default temperatures), and the time per
 evaluation of the cost, its gradient and its Hessian in CasADi's virtual machine and as
 compiled C (with the build time); with ``--compare-fast``, the default solver (IPOPT) and the
-fast method side by side, with their cross-check. ``docs/nlp.md`` quotes its output.
+fast method side by side, with their cross-check. ``docs/design.md`` quotes its output.
 """
 
 from __future__ import annotations

@@ -75,7 +75,7 @@ class MultistartSettings:
     is multimodal: the NLP only runs from the best of them)."""
     n_solved: int = 3
     """Starts the NLP runs from (the warm start, then the best distinct others); fewer lost
-    BARN worlds (docs/nlp.md, "Pass 8")."""
+    BARN worlds (docs/design.md, "Pass 8")."""
     distinct: float = 0.05
     """Two starts closer than this share of the box (max norm) count as one."""
     soft_turn: float = 0.6
@@ -89,7 +89,7 @@ class MultistartSettings:
     (``nudge-1``, ``nudge-2``): the law's shortest moves, which a robot edging forward between
     obstacles takes. The screen draws r uniformly over the box, so under 8 % of its points lie
     within 0.6 m; two nudges find the best move of the t-corridor's stalled cycles, but they
-    lost on the tuning episodes, so they are off by default (docs/nlp.md, "Nudges")."""
+    lost on the tuning episodes, so they are off by default (docs/design.md, "Nudges")."""
 
     def __post_init__(self):
         check_integers(self, {"n_spread": 0, "n_screen": 0, "n_solved": 1, "nudges": 0})
@@ -105,7 +105,7 @@ class PolishSettings:
     rounds: int = 8
     """Rounds of the pattern search: the best candidate's 24 neighbours (a step of ``step``
     along one variable, or along all four at once; share of each range) are costed exactly and
-    the best kept, then the step halves; 0 turns the polish off (docs/nlp.md, "Pass 6")."""
+    the best kept, then the step halves; 0 turns the polish off (docs/design.md, "Pass 6")."""
     step: float = 0.04
     """First step, as a share of each variable's range."""
     starts: int = 5
@@ -113,13 +113,13 @@ class PolishSettings:
     margin: float = 1.0
     """Candidates whose exact cost trails the best one's by more than this are not polished
     (``inf``: every one of the ``starts``): no polish gain measured ever came near it
-    (docs/nlp.md, "Pass 6")."""
+    (docs/design.md, "Pass 6")."""
     scouts: int = 11
     """Distinct candidates after the ``starts`` (the same order and margin) walked only
     ``scout_rounds`` rounds, in one batch, before the best ``promoted`` of them walk the rest
     with the others (0: none). On the hall's cross-check cycles the exact best lay next to a
     candidate ranked 6th to 16th in 22 of 150 plans, so 5 + 11 seeds reach them all
-    (docs/nlp.md, "Scouts")."""
+    (docs/design.md, "Scouts")."""
     scout_rounds: int = 2
     """Rounds every scout walks before the best are promoted: in 17 of those 22 plans the
     scout that won already led the scouts after two rounds."""
@@ -209,7 +209,7 @@ class SolverConfig:
         On 4 variables it needs no barrier and no per-call ``nlpsol`` overhead; its ``tol`` is
         the predicted decrease counted as converged (1e-3, against the 0.01 cost tolerance). The
         polish starts from the 3 best candidates instead of 5: two fifths of the polish saved
-        for about the same plans (docs/nlp.md, "Pass 6"). ``changes`` replace whole settings.
+        for about the same plans (docs/design.md, "Pass 6"). ``changes`` replace whole settings.
         """
         changes.setdefault("local", LocalSolverSettings(tol=1e-3))
         changes.setdefault("polish", PolishSettings(starts=3))

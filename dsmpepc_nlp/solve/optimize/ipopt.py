@@ -36,7 +36,7 @@ def ipopt_options(solver: SolverConfig, warm: bool) -> dict:
     options = dict(_QUIET_IPOPT)
     options.update({"ipopt.max_iter": solver.local.max_iter, "ipopt.tol": solver.local.tol,
                     # The bilinear tables' gradient jumps at cell edges: the dual residual
-                    # stalls near 0.1 when the objective has converged (docs/nlp.md), so
+                    # stalls near 0.1 when the objective has converged (docs/design.md), so
                     # "acceptable" is judged by the objective's change alone.
                     "ipopt.acceptable_tol": 1e10, "ipopt.acceptable_iter": 3,
                     "ipopt.acceptable_dual_inf_tol": 1e10,
@@ -44,17 +44,17 @@ def ipopt_options(solver: SolverConfig, warm: bool) -> dict:
                     "ipopt.mu_strategy": "adaptive",
                     # The probing (Mehrotra) barrier oracle: fewer iterations than the default
                     # quality function on these 4-variable problems, at an equal or lower exact
-                    # cost (docs/nlp.md, "this pass").
+                    # cost (docs/design.md, "this pass").
                     "ipopt.mu_oracle": "probing",
                     # Second-order corrections repair constraint violations; with bounds
                     # alone each rejected step paid for them in cost evaluations, and
                     # gradient scaling one gradient per solve. Both leave
-                    # every iterate as it was (docs/nlp.md, "Pass 4").
+                    # every iterate as it was (docs/design.md, "Pass 4").
                     "ipopt.max_soc": 0,
                     "ipopt.nlp_scaling_method": "none",
                     # The limited-memory Hessian's augmented system solved as one extended
                     # system instead of by Sherman-Morrison backsolves: the same steps to
-                    # rounding, less of IPOPT's own time per solve (docs/nlp.md, "Pass 5").
+                    # rounding, less of IPOPT's own time per solve (docs/design.md, "Pass 5").
                     "ipopt.limited_memory_aug_solver": "extended"})
     if solver.local.hessian == "quasi-newton":
         options["ipopt.hessian_approximation"] = "limited-memory"

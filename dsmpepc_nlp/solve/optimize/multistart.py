@@ -8,7 +8,7 @@ cycle's parameters to the compiled global graph once, runs the solver (IPOPT or 
 trust-region Newton method) from the warm start and the best distinct others (``n_solved``),
 polishes the best candidates on the exact cost, and hands back one
 :class:`~dsmpepc_nlp.solve.plan.StartRecord` per start with its exact cost: the verdict is
-the exact cost. Every knob is a ``SolverConfig`` field; why these settings: ``docs/nlp.md``.
+the exact cost. Every knob is a ``SolverConfig`` field; why these settings: ``docs/design.md``.
 """
 
 from __future__ import annotations

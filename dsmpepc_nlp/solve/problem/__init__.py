@@ -23,7 +23,7 @@ honest at every z:
   poses it can reach that soon (:func:`pose_mask`, a CasADi conditional per pair).
 
 Everything but the look-ups is SX (compact derivatives); the cost is ``costs.assemble``, the
-formula the exact cost uses. Accuracy and speed, with the commands, are in ``docs/nlp.md``.
+formula the exact cost uses. Accuracy and speed, with the commands, are in ``docs/design.md``.
 
 The package: :mod:`.layout` (the parameter blocks: sizes, names, shapes, and the packing of a
 cycle into them, one layout in one file), :mod:`.geometry` (the formulas on symbols:

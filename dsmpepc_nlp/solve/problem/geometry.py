@@ -25,7 +25,7 @@ def table_lookup(sizes: GraphSizes):
     """Bilinear interpolation of a (table_cells x table_cells) parametric table at one point.
 
     ``(uv 2 x 1 in cell units, table) -> value``. Called once per point in MX: each call reads
-    the table in place (a mapped call copied it per point; see docs/nlp.md).
+    the table in place (a mapped call copied it per point; see docs/design.md).
     """
     cells = [float(i) for i in range(sizes.table_cells)]
     return ca.interpolant("bilinear", "linear", [cells, cells], 1,

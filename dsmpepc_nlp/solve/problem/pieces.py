@@ -50,7 +50,7 @@ def symbolic(config, smoothing):
 def piece(name, inputs, outputs, fixed, positions):
     """A SX piece of the graph; with ``fixed``, its inputs at ``positions`` (parameters: they
     never depend on z) are marked not differentiable, so that a gradient in z does not carry
-    their adjoints through every call (docs/nlp.md, "Pass 12")."""
+    their adjoints through every call (docs/design.md, "Pass 12")."""
     if not fixed:
         return ca.Function(name, inputs, outputs)
     flags = [i not in positions for i in range(len(inputs))]
@@ -101,7 +101,7 @@ def object_function(config, sizes, smoothing, fixed=False):
     # Exactly 1 with a zero derivative, written so that it reads every differentiable input:
     # its adjoint is then dense like the computation's, and the conditional's reverse mode
     # writes it without projecting a structurally zero one, a measurable share of a gradient
-    # (docs/nlp.md). Inputs marked not differentiable have no adjoint, so it need not read
+    # (docs/design.md). Inputs marked not differentiable have no adjoint, so it need not read
     # them (the settings alone were 37 additions a call, on every far pose of every object).
     read = [x for i, x in enumerate(inputs) if not (fixed and i in parameters)]
     far = piece("dsmpepc_object_far", inputs,
