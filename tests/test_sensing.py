@@ -238,3 +238,14 @@ def test_the_failure_classifier_reads_what_the_robot_believed():
     assert found.name == "not-perceived" and found.evidence["perceived_touched"] == "person"
     episode.meta["perception"] = [{"touched": ["person"], "believed": True}]
     assert failures.classify(episode, 0).name != "not-perceived"
+
+
+def test_a_profile_sets_the_trackers_settings(tmp_path):
+    path = tmp_path / "quick.yaml"
+    path.write_text("base: tracked\ntracker: {confirm_hits: 2}\n")
+    profile = load_profile(path)
+    assert profile.tracker.confirm_hits == 2 and profile.detector == DetectorSettings()
+    assert _senses(profile).tracker.config.confirm_hits == 2
+    path.write_text("base: tracked\ntracker: {confirm_hit: 2}\n")
+    with pytest.raises(InputError, match="did you mean 'confirm_hits'"):
+        load_profile(path)

@@ -76,7 +76,7 @@ class Senses:
                 size=lidar.window, resolution=lidar.resolution,
                 obstacle_max_range=lidar.range_max, raytrace_max_range=lidar.range_max))
             self.local_map.prepare()
-        self.tracker = PeopleTracker() if profile.detector is not None else None
+        self.tracker = None if profile.detector is None else PeopleTracker(profile.tracker)
         self.pending = collections.deque()        # detections not yet handed over
         self.commands = collections.deque()       # commands not yet executed (the delay)
         self.counts = collections.Counter()

@@ -31,6 +31,7 @@ import yaml
 
 from ..core.errors import InputError, shown
 from ..core.validation import validate_fields
+from ..perception import TrackerConfig
 
 UST10_FOV = 4.712389
 """Hokuyo UST-10's field of view, rad (270 degrees, +-2.356 rad: the BARN Challenge's Jackal)."""
@@ -153,6 +154,9 @@ class PlantSettings:
 SECTIONS = {"lidar": LidarSettings, "detector": DetectorSettings,
             "localisation": LocalisationSettings, "plant": PlantSettings}
 """A profile's parts, by the key a profile file names them with."""
+SETTINGS = {**SECTIONS, "tracker": TrackerConfig}
+"""Every section a profile file may hold: the parts, and the tracker's settings (the
+product's :class:`~dsmpepc_nlp.perception.TrackerConfig`, its defaults when not given)."""
 
 
 @dataclass(frozen=True)
@@ -164,6 +168,8 @@ class SensingProfile:
     detector: DetectorSettings | None = None
     localisation: LocalisationSettings | None = None
     plant: PlantSettings | None = None
+    tracker: TrackerConfig | None = None
+    """The people tracker's settings with a detector (None: ``TrackerConfig()``)."""
 
     @property
     def is_oracle(self) -> bool:
@@ -174,7 +180,7 @@ class SensingProfile:
         """JSON-able: the name and every part's fields (None for a true part)."""
         return {"name": self.name, **{key: None if getattr(self, key) is None
                                       else dataclasses.asdict(getattr(self, key))
-                                      for key in SECTIONS}}
+                                      for key in SETTINGS}}
 
     def with_lidar(self, **changes) -> SensingProfile:
         """This profile with its lidar's fields changed (no lidar: unchanged)."""
@@ -220,11 +226,12 @@ def parse_profile(data, source: str = "<mapping>", default_name: str = "custom")
         -> SensingProfile:
     """A profile from a mapping: optional ``name``, ``base`` (a built-in to start from) and
     the parts ``lidar``, ``detector``, ``localisation``, ``plant``, each a mapping of its
-    fields, ``true`` (its defaults) or ``false``/``null`` (the truth)."""
+    fields, ``true`` (its defaults) or ``false``/``null`` (the truth), and ``tracker`` (the
+    tracker's settings)."""
     where = f"sensing profile {source}"
     if not isinstance(data, dict):
         raise InputError(f"{where}: got {type(data).__name__}; must be a mapping")
-    _known(data, ("name", "base", *SECTIONS), where)
+    _known(data, ("name", "base", *SETTINGS), where)
     base = BUILTIN_PROFILES["oracle"]
     if "base" in data:
         if data["base"] not in BUILTIN_PROFILES:
@@ -235,7 +242,7 @@ def parse_profile(data, source: str = "<mapping>", default_name: str = "custom")
     if not isinstance(name, str) or not name:
         raise InputError(f"{where}: name: {shown(name)}: must be a non-empty string")
     parts = {}
-    for key, kind in SECTIONS.items():
+    for key, kind in SETTINGS.items():
         value = data.get(key, getattr(base, key)) if key in data else getattr(base, key)
         if key in data:
             value = _part(data[key], kind, getattr(base, key), f"{where}: {key}")
