@@ -30,7 +30,7 @@ _ARRAYS = (
     "times", "states", "active", "goals", "z", "cost_total", "cost_terms", "survivability",
     "ttg", "ttc_terminal", "status", "nit", "plan_time", "n_starts", "plan_poses",
     "ped_positions", "ped_velocities", "ped_radii", "grid_occupied", "grid_resolution",
-    "grid_origin", "believed_states",
+    "grid_origin", "believed_states", "believed_occupied",
 )
 
 
@@ -79,6 +79,10 @@ class Episode:
     believed_states : ndarray, (R, K, 5) or None
         Under a sensing profile (``meta["sensing"]``), the state each robot believed it was in
         when it planned (NaN when it did not); None when it was told the truth.
+    believed_occupied : ndarray of bool, (R, ny, nx) or None
+        Under a profile with a lidar, each robot's local map at the end of the run, its lower
+        left corner at ``meta["believed_origin"][robot]`` and cells ``meta["believed_resolution"]``
+        m wide (:meth:`believed_grid`).
     meta : dict
         JSON-able: scenario name, map path, variant, solver, seed, dt, robot names, footprints,
         goal kinds, parked robots, the planner configuration.
@@ -110,6 +114,7 @@ class Episode:
     meta: dict
     samples: dict = field(default_factory=dict)
     believed_states: np.ndarray | None = None
+    believed_occupied: np.ndarray | None = None
 
     term_names = TERM_NAMES
     statuses = STATUSES
@@ -134,6 +139,13 @@ class Episode:
         if self.grid_occupied is None:
             return None
         return OccupancyGrid(self.grid_occupied, self.grid_resolution, self.grid_origin)
+
+    def believed_grid(self, robot: int) -> OccupancyGrid | None:
+        """Robot ``robot``'s local map at the end of the run (None without a lidar)."""
+        if self.believed_occupied is None:
+            return None
+        return OccupancyGrid(self.believed_occupied[robot], self.meta["believed_resolution"],
+                             self.meta["believed_origin"][robot])
 
     def footprint(self, robot: int) -> np.ndarray:
         """Body-frame circles of robot ``robot``, (C, 3)."""

@@ -359,6 +359,11 @@ def _episode(loop: _Loop, arrays: dict, samples: dict, config, solver) -> Episod
         extra["believed_states"] = _believed(loop)
         meta["sensing_counts"] = [dict(s.counts) for s in loop.senses]
         meta["perception"] = loop.perception
+        if loop.senses[0].local_map is not None:
+            grids = [s.local_map.grid() for s in loop.senses]
+            extra["believed_occupied"] = np.stack([g.occupied for g in grids])
+            meta["believed_origin"] = [g.origin.tolist() for g in grids]
+            meta["believed_resolution"] = grids[0].resolution
     n_times = len(loop.times)
     return Episode(
         times=np.array(loop.times), states=np.array(loop.hist_states),

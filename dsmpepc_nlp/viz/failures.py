@@ -20,7 +20,7 @@ from matplotlib.patches import Circle
 from ..core.errors import seconds
 from ..core.files import atomic_savefig
 from ..sim.outcomes import OutcomeConfig
-from .plots import _footprint, _limits, draw_cost_panel, draw_map, on_stage
+from .plots import _footprint, _limits, draw_believed_map, draw_cost_panel, draw_map, on_stage
 
 EVIDENCE_KEYS = ("collision_kind", "contact_time", "touched", "start_gap", "robot_speed",
                  "approach_speed", "contact_age", "escape", "net_displacement",
@@ -48,9 +48,11 @@ def _text(evidence: dict) -> str:
 
 
 def draw_scene(ax, episode, failure: dict, label: str) -> None:
-    """One failed run: map, path (stuck window thick), people, footprint at the stuck cycle."""
+    """One failed run: map (and the robot's believed map, when it sensed), path (stuck window
+    thick), people, footprint at the stuck cycle."""
     draw_map(ax, episode.grid)
     robot, k = failure["robot"], failure["cycle"]
+    draw_believed_map(ax, episode, robot)
     end = min(episode.n_cycles,
               int(np.searchsorted(episode.times, episode.outcome_times[robot] - 1e-9)))
     window = int(round(OutcomeConfig().deadlock_window / episode.dt)) + 1

@@ -18,6 +18,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib import animation
+from matplotlib.colors import ListedColormap
 from matplotlib.patches import Circle
 
 from ..core.errors import InputError, seconds
@@ -197,12 +198,28 @@ def episode_figure(episode, *, cycle: int | None = None, path=None):
     return _finish(fig, path)
 
 
+def draw_believed_map(ax, episode, robot: int = 0) -> None:
+    """Under a profile with a lidar, robot ``robot``'s local map at the end of the run: its
+    occupied cells in translucent orange over the true map the frame draws."""
+    grid = episode.believed_grid(robot) if hasattr(episode, "believed_grid") else None
+    if grid is None or not grid.occupied.any():
+        return
+    x0, y0, x1, y1 = grid.bounds
+    shown = np.ma.masked_where(~grid.occupied, grid.occupied.astype(float))
+    ax.imshow(shown, origin="lower", extent=(x0, x1, y0, y1),
+              cmap=ListedColormap(["darkorange"]), vmin=0, vmax=1, alpha=0.55,
+              interpolation="nearest", zorder=1)
+    ax.plot([], [], color="darkorange", lw=6, alpha=0.55, label="believed map (end of run)")
+
+
 def draw_belief(ax, episode, cycle: int) -> None:
     """Under a sensing profile, where each robot believed it was at every plan up to
-    ``cycle`` (dashed, in the robot's colour) beside the true path the frame draws."""
+    ``cycle`` (dashed, in the robot's colour) beside the true path the frame draws, and the
+    first robot's believed map."""
     believed = getattr(episode, "believed_states", None)
     if believed is None:
         return
+    draw_believed_map(ax, episode, 0)
     label = f"believed path ({episode.meta.get('sensing', {}).get('name', 'sensed')})"
     for i in range(episode.n_robots):
         path = believed[i, :cycle]
