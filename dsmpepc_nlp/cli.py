@@ -2,7 +2,8 @@
 
 Commands: ``list``, ``run`` and ``compare`` (scenarios, here) and ``crosscheck``, ``bench``
 (plan time), ``benchmark barn|crowd|scenarios`` and ``sweep`` (from
-:mod:`dsmpepc_nlp.bench.commands`). Every parser sets ``func``; :func:`main` parses, calls it and
+:mod:`dsmpepc_nlp.bench.commands`), ``irsim`` (an IR-SIM world, from
+:mod:`dsmpepc_nlp.irsim.commands`). Every parser sets ``func``; :func:`main` parses, calls it and
 applies the policy: bad input of any kind (a value, a file, a missing optional dependency) is an
 :class:`~dsmpepc_nlp.core.errors.InputError`, printed as one line on stderr with exit status 2;
 Ctrl-C exits 130. Progress goes to stderr, results to stdout (one JSON object with ``--json``).
@@ -29,6 +30,7 @@ from .core.errors import InputError
 from .core.jsonio import json_clean
 from .core.progress import EpisodeProgress
 from .core.solver_config import SOLVER_NAMES
+from .irsim import commands as irsim_commands
 from .sim.metrics import episode_metrics
 from .sim.panels import cost_panels
 from .sim.scenario import builtin_names, load_scenario
@@ -262,6 +264,7 @@ def build_parser() -> argparse.ArgumentParser:
         sub.choices[name].epilog = epilog
         sub.choices[name].formatter_class = argparse.RawDescriptionHelpFormatter
     failure_report.register(sub)
+    irsim_commands.register(sub, metrics_table)
     return parser
 
 
