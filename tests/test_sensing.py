@@ -242,10 +242,11 @@ def test_the_failure_classifier_reads_what_the_robot_believed():
 
 def test_a_profile_sets_the_trackers_settings(tmp_path):
     path = tmp_path / "quick.yaml"
-    path.write_text("base: tracked\ntracker: {confirm_hits: 2}\n")
+    path.write_text("base: tracked\ntracker: {confirm_hits: 4}\n")
     profile = load_profile(path)
-    assert profile.tracker.confirm_hits == 2 and profile.detector == DetectorSettings()
-    assert _senses(profile).tracker.config.confirm_hits == 2
+    assert profile.tracker.confirm_hits == 4 and profile.detector == DetectorSettings()
+    assert BUILTIN_PROFILES["tracked"].tracker.confirm_hits == 2
+    assert _senses(profile).tracker.config.confirm_hits == 4
     path.write_text("base: tracked\ntracker: {confirm_hit: 2}\n")
     with pytest.raises(InputError, match="did you mean 'confirm_hits'"):
         load_profile(path)
