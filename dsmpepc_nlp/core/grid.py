@@ -45,6 +45,20 @@ def _readonly(arr):
     return arr
 
 
+def _checked_occupancy(occupied):
+    """``occupied`` as an array, checked: 2-D, not empty, bool or numbers 0 and 1."""
+    arr = np.asarray(occupied)
+    if arr.ndim != 2 or arr.shape[0] < 1 or arr.shape[1] < 1:
+        raise InputError(f"occupied has shape {arr.shape}: expected (ny, nx) with ny, nx >= 1")
+    if arr.dtype != bool and (
+        not np.issubdtype(arr.dtype, np.number) or not np.all((arr == 0) | (arr == 1))
+    ):
+        raise InputError(
+            f"occupied has dtype {arr.dtype} and values other than 0/1: expected bool or 0/1"
+        )
+    return arr
+
+
 def _interpolate(table, resolution, origin, points):
     """Bilinear interpolation of ``table`` (ny, nx) between cell centres at ``points`` (..., 2).
 
@@ -112,16 +126,7 @@ class OccupancyGrid:
     """
 
     def __init__(self, occupied, resolution, origin=(0.0, 0.0)):
-        arr = np.asarray(occupied)
-        if arr.ndim != 2 or arr.shape[0] < 1 or arr.shape[1] < 1:
-            raise InputError(f"occupied has shape {arr.shape}: expected (ny, nx) with ny, nx >= 1")
-        if arr.dtype != bool and (
-            not np.issubdtype(arr.dtype, np.number) or not np.all((arr == 0) | (arr == 1))
-        ):
-            raise InputError(
-                f"occupied has dtype {arr.dtype} and values other than 0/1: expected bool or 0/1"
-            )
-        self._occupied = _readonly(np.array(arr, dtype=bool))
+        self._occupied = _readonly(np.array(_checked_occupancy(occupied), dtype=bool))
         self._resolution = number_in("resolution", resolution, *RESOLUTION_RANGE)
         self._origin = _readonly(finite_vector("origin", origin, 2, MAX_COORDINATE))
 
@@ -142,6 +147,51 @@ class OccupancyGrid:
     def from_array(cls, occupied, resolution, origin=(0.0, 0.0)) -> OccupancyGrid:
         """Same as the constructor; see :class:`OccupancyGrid`."""
         return cls(occupied, resolution, origin)
+
+    @classmethod
+    def updated_from(cls, previous, occupied, origin=None) -> OccupancyGrid:
+        """A grid that is ``previous`` moved and changed: a rolling local map's next window.
+
+        The values are those of a grid built from scratch; only the work differs. Its
+        :attr:`signed_distance`, when ``previous``'s has been computed, is updated from it where
+        the changes can reach (:mod:`.distance_update`); its navigation functions start from
+        ``previous``'s for the same goal and inflation radius (:mod:`.navigation_update`).
+
+        Parameters
+        ----------
+        previous : OccupancyGrid
+            The grid this one follows. It is held (:attr:`previous`) until a grid is made
+            from this one; its own previous grid is let go now, so no chain of grids is kept.
+        occupied : array_like of bool or {0, 1}, shape (ny, nx)
+            The new occupancy, any shape.
+        origin : array_like, shape (2,), optional
+            World (x, y) (m) of the new cell [0, 0]; ``previous``'s by default. An origin off
+            ``previous``'s lattice (not whole cells away) gives a grid computed from scratch.
+
+        Returns
+        -------
+        OccupancyGrid
+            With ``previous``'s resolution; finite origins are accepted as for a grid the
+            package derives (:meth:`derived`).
+        """
+        if not isinstance(previous, OccupancyGrid):
+            raise InputError(f"previous={previous!r}: expected an OccupancyGrid")
+        grid = cls.derived(_checked_occupancy(occupied), previous.resolution,
+                           previous.origin if origin is None else origin)
+        previous.__dict__.pop("_previous", None)
+        grid._previous = previous
+        grid._updated = True
+        return grid
+
+    @property
+    def previous(self) -> OccupancyGrid | None:
+        """The grid this one was updated from (:meth:`updated_from`), while it is held."""
+        return self.__dict__.get("_previous")
+
+    @property
+    def is_update(self) -> bool:
+        """Whether :meth:`updated_from` made this grid (its previous grid may be let go)."""
+        return self.__dict__.get("_updated", False)
 
     @property
     def occupied(self) -> np.ndarray:
@@ -187,7 +237,16 @@ class OccupancyGrid:
         neighbour ``sqrt(2)/2 * resolution``). Negative inside obstacles: minus the distance to
         the nearest free cell's square; cells outside the grid are free. ``FAR`` everywhere when
         no cell is occupied. Exact for the grid's geometry (see :func:`_distance_to_squares`).
+        On a grid made by :meth:`updated_from`, updated from the previous grid's where the
+        changes can reach (:mod:`.distance_update`): the same values, to the bit.
         """
+        previous = self.__dict__.get("_previous")
+        if previous is not None:
+            from .distance_update import updated_signed_distance
+
+            table = updated_signed_distance(self, previous)
+            if table is not None:
+                return table
         occ = self._occupied
         if not occ.any():
             return _readonly(np.full(occ.shape, FAR))

@@ -205,7 +205,10 @@ def _grid_graph(cells, seeds, seed_weights):
 class NavigationFunction:
     """Shortest free-space path length to a goal, interpolated.
 
-    Built once per (grid, goal, inflation, window).
+    Built once per (grid, goal, inflation, window). On a grid made by
+    :meth:`~.grid.OccupancyGrid.updated_from`, built by :mod:`.navigation_update` (from the
+    previous grid's function for the same goal and inflation where it has one): the same
+    values up to the rounding of the path sums.
 
     Parameters
     ----------
@@ -258,8 +261,14 @@ class NavigationFunction:
         if grid is not None:
             window = navigation_window(grid, self.goal, margin, near, reach)
             self.working_grid = _crop(grid, window)
-            self.values = _readonly(self._solve(
-                *_kept_window(grid, window, self.inflation_radius)))
+            values = None
+            if grid.is_update:  # a grid made from a previous one: start from its paths
+                from .navigation_update import updated_values
+
+                values = updated_values(self, grid, window)
+            if values is None:
+                values = self._solve(*_kept_window(grid, window, self.inflation_radius))
+            self.values = _readonly(values)
 
     def _solve(self, free, cells, fills=None):
         work = self.working_grid

@@ -208,3 +208,19 @@ class World:
             owner = np.repeat(np.arange(len(obs), dtype=np.intp), counts)
             self._stacked = tuple(_readonly(a) for a in (centers, radii, velocities, owner))
         return self._stacked
+
+
+def warm_up_map_updates() -> bool:
+    """Load (or compile) the kernels that update a grid's signed distance and navigation
+    functions from a previous grid's (:meth:`OccupancyGrid.updated_from`) now, not in the
+    first update (about a second, numba's import included, once per process); False where
+    they are not compiled (``DSMPEPC_NO_COMPILE``, no numba)."""
+    occ = np.zeros((8, 8), dtype=bool)
+    occ[2, 5] = occ[5, 2] = True
+    grid = OccupancyGrid.derived(occ, 0.1, (0.0, 0.0))
+    _ = grid.signed_distance
+    for shift in (1, 2):  # the second repairs the first's paths
+        grid = OccupancyGrid.updated_from(grid, np.roll(occ, -shift, axis=1), (0.1 * shift, 0.0))
+        _ = grid.signed_distance
+        nav = NavigationFunction((0.45, 0.35), grid, 0.1)
+    return "_paths" in nav.__dict__

@@ -15,9 +15,8 @@ obstacle). With ``decay`` a mark not re-observed within that time is forgotten (
 The prior (a static map) is merged under the observations as Nav2's layered costmap merges
 its static layer: by maximum. A prior-occupied cell reads occupied whatever the sensor says
 (clearing never removes it: a wrong static map is fixed in the map, not by the lidar); a
-prior-free cell reads as the observations say, and as free if never observed (the prior is
-knowledge: ``unknown`` applies only outside the prior's extent). What the sensor has seen
-(:meth:`LocalMap.known`, :meth:`LocalMap.seen_free`) is the sensor's alone.
+prior-free cell reads as the observations say, and as free if never observed (``unknown``
+applies only outside the prior). What the sensor has seen is the sensor's alone.
 """
 
 from __future__ import annotations
@@ -29,6 +28,7 @@ import numpy as np
 
 from ..core.errors import RESOLUTION_RANGE, InputError, number_in, positive_number, shown
 from ..core.grid import OccupancyGrid
+from ..core.world import warm_up_map_updates
 from . import raycast
 from .raycast import cell_index, traverse, window_fraction
 from .scan import LaserScan
@@ -193,8 +193,9 @@ class LocalMap:
     # -- updating ----------------------------------------------------------------------------
 
     def prepare(self) -> bool:
-        """Load (or compile) the compiled ray traversal now, not in the first update; False
-        on the numpy path."""
+        """Load (or compile) the compiled ray traversal and map updates now, not in the first
+        update; False on the numpy path."""
+        warm_up_map_updates()
         return raycast.warm_up()
 
     def update(self, scan: LaserScan) -> dict:
@@ -312,7 +313,7 @@ class LocalMap:
             grid.refresh(self._seen_free)          # more seen, the same map: keep its caches
         else:
             grid = SensedGrid.build(occupied, self._config.resolution, self.origin,
-                                    self._seen_free)
+                                    self._seen_free, None if served is None else served[2])
         self._served = (self._version, self._corner.copy(), grid)
         return grid
 

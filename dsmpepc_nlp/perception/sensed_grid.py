@@ -27,9 +27,13 @@ class SensedGrid(OccupancyGrid):
     """
 
     @classmethod
-    def build(cls, occupied, resolution, origin, seen) -> SensedGrid:
-        """The grid of ``occupied`` with the mask ``seen`` (copied), shape (ny, nx) each."""
-        grid = cls.derived(occupied, resolution, origin)
+    def build(cls, occupied, resolution, origin, seen, previous=None) -> SensedGrid:
+        """The grid of ``occupied`` with the mask ``seen`` (copied), shape (ny, nx) each; with
+        ``previous`` (the last grid handed out, same resolution), updated from it
+        (:meth:`~dsmpepc_nlp.core.grid.OccupancyGrid.updated_from`: its signed distance and
+        navigation functions repaired where the changes reach, not rebuilt)."""
+        grid = (cls.derived(occupied, resolution, origin) if previous is None
+                else cls.updated_from(previous, occupied, origin))
         grid._seen = np.array(seen, dtype=bool)
         if grid._seen.shape != grid.shape:
             raise ValueError(f"seen has shape {grid._seen.shape}: expected {grid.shape}")
