@@ -30,6 +30,7 @@ from ..sim.simulate import simulate
 from ..viz import figures
 from . import claims
 from .crosscheck import crosscheck
+from .map_timing import format_lidar_table, lidar_map_timing
 from .params import parse_ipopt_options, parse_params, preset_config
 from .results import parse_indices
 from .suites import (
@@ -97,12 +98,21 @@ def add_bench(p) -> None:
     p.add_argument("--ipopt-option", action="append", default=[], metavar="KEY=VALUE",
                    help="an IPOPT option for the default planner, e.g. max_soc=4 (repeatable; "
                         "to time a setting against the defaults)")
+    p.add_argument("--lidar-map", action="store_true",
+                   help="instead: the default planner on a map a simulated lidar builds and "
+                        "changes every cycle, beside the same plans on the known map")
 
 
 def run_timing(args) -> int:
     solver_config("nlp")
     options = parse_ipopt_options(args.ipopt_option)
     default = SolverConfig(local=LocalSolverSettings(options=options))
+    if args.lidar_map:
+        say(f"[bench] {args.cycles} cycles of the crowded demo scene, known and lidar maps")
+        result = lidar_map_timing(args.cycles, args.seed, solver=default)
+        print(json.dumps(json_clean(result), allow_nan=False) if args.json
+              else format_lidar_table(result))
+        return 0
     say(f"[bench] timing {args.cycles} cycles of the crowded demo scene")
     result = run_bench(n_cycles=args.cycles, seed=args.seed, default=default)
     result["ipopt_options"] = dict(default.local.options)

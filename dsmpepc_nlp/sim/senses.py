@@ -102,7 +102,7 @@ class Senses:
                        for p, v, r in zip(positions, velocities, radii)]
         grid = self.grid
         if self.local_map is not None:
-            grid = self._mapped(t, state, believed, positions, radii, others, walkers + moved)
+            grid = self.mapped(t, state, believed, positions, radii, others, walkers + moved)
         self.last_world = World(grid, walkers + moved)
         return RobotState(*(float(v) for v in believed)), self.last_world
 
@@ -155,7 +155,7 @@ class Senses:
         ranges[ranges > lidar.range_max] = np.inf
         return sensor, offsets, ranges
 
-    def _mapped(self, t, state, believed, positions, radii, others, planned):
+    def mapped(self, t, state, believed, positions, radii, others, planned):
         """The local map after this cycle's scan, integrated at the believed sensor pose; the
         returns from objects the planner is given (``planned``) are left unmarked."""
         lidar = self.profile.lidar
