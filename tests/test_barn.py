@@ -159,3 +159,34 @@ def test_overrides_reach_the_configuration(tmp_path):
     assert s.meta()["overrides"] == {"sigma_static": 0.05, "robot.omega_limit": 1.0}
     with pytest.raises(ValueError, match="one value"):
         params.overrides(["sigma_static=0.05,0.1"])
+
+
+def test_a_sensed_benchmark_on_a_local_dask_cluster_matches_local_processes(tmp_path, capsys):
+    """``--scheduler`` on loopback (a Dask scheduler and a worker in this process) gives the
+    rows local workers give, under a sensing profile; the table records the profile and both
+    scores, and a bad profile file fails before anything runs, naming the file."""
+    distributed = pytest.importorskip("distributed")
+    write_world(tmp_path / "data", 0)
+    base = ["benchmark", "barn", "--data", str(tmp_path / "data"), "--worlds", "0",
+            "--solver", "sampling", "--samples", "64", "--time-limit", "0.6"]
+    argv = base + ["--sensing", "lidar", "--json"]
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None, protocol="tcp",
+                                  host="127.0.0.1") as cluster:
+        assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
+        assert cli.main(argv + ["--scheduler", cluster.scheduler_address,
+                                "--out", str(tmp_path / "dask")]) == 0
+    on_dask = json.loads(capsys.readouterr().out)
+    assert cli.main(argv + ["--workers", "1", "--out", str(tmp_path / "local")]) == 0
+    local = json.loads(capsys.readouterr().out)
+    table = json.loads((tmp_path / "dask" / "barn.json").read_text())
+    assert table["meta"]["sensing"] == "lidar"
+    rows = [{k: r[k] for k in ("world", "outcome", "score", "score_2020", "path_length")}
+            for r in table["rows"]]
+    local_rows = [{k: r[k] for k in ("world", "outcome", "score", "score_2020", "path_length")}
+                  for r in json.loads((tmp_path / "local" / "barn.json").read_text())["rows"]]
+    assert rows == local_rows and on_dask["worlds"] == local["worlds"] == 1
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("lidar: {beams: 1}\n")
+    assert cli.main(base + ["--sensing", str(bad), "--out", str(tmp_path / "x")]) == 2
+    assert "bad.yaml" in capsys.readouterr().err and not (tmp_path / "x").exists()
