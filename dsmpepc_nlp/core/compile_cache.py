@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import ast
 import contextlib
+import functools
 import hashlib
 import importlib
 import json
@@ -320,3 +321,18 @@ def import_numba_module(name: str, folder: Path):
         return importlib.import_module(name)
     finally:
         numba.config.CACHE_DIR = previous
+
+
+@functools.lru_cache(maxsize=None)
+def _loaded(name: str):
+    try:
+        return import_numba_module(name, numba_folder(name))
+    except (ImportError, OSError):
+        return None
+
+
+def optional_numba_module(name: str):
+    """The numba module ``name`` (dotted, absolute) with its cache in :func:`numba_folder`, or
+    None when compiling is off (``DSMPEPC_NO_COMPILE``, read on every call), numba is missing
+    or the cache is not writable: the caller then runs its numpy path."""
+    return _loaded(name) if compile_enabled() else None

@@ -25,11 +25,9 @@ signed distance from scratch: the same values, at the full cost.
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
-from .compile_cache import compile_enabled, import_numba_module, numba_folder
+from .compile_cache import optional_numba_module
 
 FREE_BUDGET = 4
 """Steps per cell that walking out from the occupied cells to the free ones may take before
@@ -38,21 +36,10 @@ SHIFT_TOLERANCE = 1e-6
 """Origins whose offset is within this many cells of whole cells count as on one lattice."""
 
 
-@functools.lru_cache(maxsize=1)
-def _compiled_kernels():
-    """The numba module :mod:`._distance_kernels` (cached on disk), or None without numba or
-    with the cache not writable."""
-    name = f"{__package__}._distance_kernels"
-    try:
-        return import_numba_module(name, numba_folder(name))
-    except (ImportError, OSError):
-        return None
-
-
 def kernels():
     """The compiled kernels, or None when compiling is off (``DSMPEPC_NO_COMPILE``) or
     impossible."""
-    return _compiled_kernels() if compile_enabled() else None
+    return optional_numba_module(f"{__package__}._distance_kernels")
 
 
 def lattice_shift(old_origin, new_origin, resolution):

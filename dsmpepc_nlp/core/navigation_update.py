@@ -25,14 +25,13 @@ and the navigation function is computed as on any grid.
 
 from __future__ import annotations
 
-import functools
 import math
 from collections import OrderedDict
 
 import numpy as np
 
 from . import distance_update
-from .compile_cache import compile_enabled, import_numba_module, numba_folder
+from .compile_cache import optional_numba_module
 from .distance_update import lattice_shift, moved, overlap
 
 KEPT_PER_GRID = 2
@@ -48,20 +47,9 @@ FILL_BUDGET = 16
 scipy's distance transform does it instead (large unreached regions)."""
 
 
-@functools.lru_cache(maxsize=1)
-def _compiled_kernels():
-    """The numba module :mod:`._path_kernels` (cached on disk), or None without numba or with
-    the cache not writable."""
-    name = f"{__package__}._path_kernels"
-    try:
-        return import_numba_module(name, numba_folder(name))
-    except (ImportError, OSError):
-        return None
-
-
 def kernels():
     """The compiled kernels, or None when compiling is off or impossible."""
-    return _compiled_kernels() if compile_enabled() else None
+    return optional_numba_module(f"{__package__}._path_kernels")
 
 
 def free_mask(grid, window, inflation_radius, module):

@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from ..core.compile_cache import compile_enabled, import_numba_module, numba_folder
+from ..core.compile_cache import optional_numba_module
 
 
 def traverse(u0, v0, u1, v1, exclude, n) -> np.ndarray:
@@ -51,7 +51,7 @@ def traverse(u0, v0, u1, v1, exclude, n) -> np.ndarray:
     v1 = np.ascontiguousarray(v1, dtype=float)
     exclude = np.ascontiguousarray(exclude, dtype=np.int64)
     mask = np.zeros(n * n, dtype=bool)
-    kernel = _compiled_kernel() if compile_enabled() else None
+    kernel = _compiled_kernel()
     if kernel is not None:
         kernel(float(u0), float(v0), u1, v1, exclude, int(n), mask)
     else:
@@ -125,22 +125,17 @@ def traverse_numpy(u0, v0, u1, v1, exclude, n, mask) -> None:
 
 
 @functools.lru_cache(maxsize=1)
-@functools.lru_cache(maxsize=1)
 def _compiled_kernel():
     """The numba-compiled traversal (:mod:`._raycast_kernel`, cached on disk beside the other
-    compiled kernels, :mod:`dsmpepc_nlp.core.compile_cache`), or None without numba or with the
-    cache not writable."""
-    name = f"{__package__}._raycast_kernel"
-    try:
-        return import_numba_module(name, numba_folder(name)).traverse_loops
-    except (ImportError, OSError):
-        return None
+    compiled kernels), or None (compiling off, no numba, the cache not writable)."""
+    module = optional_numba_module(f"{__package__}._raycast_kernel")
+    return None if module is None else module.traverse_loops
 
 
 def warm_up() -> bool:
     """Run the compiled traversal once, so that its code is loaded (or compiled) now and not in
     a robot's first update; False on the numpy path."""
-    if not compile_enabled() or _compiled_kernel() is None:
+    if _compiled_kernel() is None:
         return False
     traverse(0.5, 0.5, np.array([2.5]), np.array([1.5]), np.array([-1]), 3)
     return True
