@@ -149,3 +149,10 @@ def test_the_drawn_cells_are_every_cell_whose_centre_a_person_covers(rows):
                              ys[:, None] - p.centers[0][1]) <= p.radii[0]
     np.testing.assert_array_equal(occupied, expected)
     assert expected.any()
+
+
+@pytest.mark.parametrize("field, value", [("standing", -1.0), ("gate", float("nan")),
+                                          ("standing_map", -0.5)])
+def test_bad_prediction_settings_are_refused_by_name(field, value):
+    with pytest.raises(InputError, match=field):
+        dataclasses.replace(PredictionConfig(), **{field: value})

@@ -229,7 +229,7 @@ class PlannerConfig:
                                                   turn_to_goal=0.0, judge_beyond=0.0,
                                                   judge_sooner=False, doomed_below=0.0,
                                                   threat_until_arrival=False, passive=False))
-        changes.setdefault("prediction", PredictionConfig(speeding_up=0.0, standing_map=0.0))
+        changes.setdefault("prediction", PredictionConfig(standing_map=0.0))
         changes.setdefault("control_law", ControlLawConfig(r_thresh_from_robot=False))
         return cls(anticipatory_pc=switches[0], terminal_cost=switches[1], cost=cost, **changes)
 

@@ -285,31 +285,12 @@ class StallConfig:
 @dataclass(frozen=True)
 class PredictionConfig:
     """How the planner reads the people it is shown (our extension, docs/method.md section 3.1;
-    off in :meth:`PlannerConfig.paper`).
+    off in :meth:`PlannerConfig.paper`): people who have stood a while are drawn into the map
+    the plan sees. The cost predicts every person at the velocity they are seen with (the
+    paper's constant velocity)."""
 
-    The cost predicts every person at the velocity they are seen with (the paper's constant
-    velocity). A person who starts to walk is seen slower than they will walk a moment later:
-    CrowdNav's walkers reach their speed over two or three steps, and the robot beside them is
-    struck before a constant-velocity prediction of the slow first step says so. With
-    ``speeding_up`` > 0 the planner keeps the people of its last plan, matches each person to
-    the one of last plan nearest where that one was predicted to be (within ``gate``), and a
-    person who stood then (slower than ``standing``) and walks now is predicted at the speed
-    they would reach ``speeding_up`` plans later at the same rise per plan, at most
-    ``walking_speed`` (and never below the speed seen). Nothing else about a person changes:
-    a walker at a steady speed, a slowing one and one seen for the first time are predicted as
-    seen.
-    """
-
-    speeding_up: float = 0.0
-    """Plans of look-ahead for a walker's speed as they set off; 0 turns it off. Off by
-    default: at 2 it lost on CrowdNav's square-invisible tuning episodes (the robot braked for
-    the quicker walker and was struck standing; docs/results.md)."""
-    walking_speed: float = 1.3
-    """The most a speeding-up walker is predicted at, m/s: a brisk adult walk (the comfortable
-    gait speed of adults is 1.3-1.5 m/s; ours, not the paper's)."""
     standing: float = 0.1
-    """A person slower than this, m/s, stands (the failure classifier's standing speed): only
-    one who stood at last plan and walks now is predicted faster than seen."""
+    """A person slower than this, m/s, stands (the failure classifier's standing speed)."""
     gate: float = 0.5
     """Farthest a person may be from where last plan's person was predicted and still be
     that person, m (a walker at 1.3 m/s who turns or stops within a 0.25 s plan is well
@@ -327,8 +308,6 @@ class PredictionConfig:
     once, the robot lost runs to people who were about to walk; docs/results.md)."""
 
     def __post_init__(self):
-        validate_fields(self, {"speeding_up": dict(low=0.0),
-                                "walking_speed": dict(low=0.0, low_open=True),
-                                "standing": dict(low=0.0),
+        validate_fields(self, {"standing": dict(low=0.0),
                                 "gate": dict(low=0.0, low_open=True),
                                 "standing_map": dict(low=0.0)})

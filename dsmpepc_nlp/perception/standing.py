@@ -24,7 +24,6 @@ import numpy as np
 from ..core.config import PlannerConfig
 from ..core.grid import OccupancyGrid
 from ..core.world import World
-from .walkers import matched, pedestrian_indices
 
 RESOLUTION = 0.1
 """Cell side of the drawn grid, m: a person's 0.3 m radius is three cells."""
@@ -36,6 +35,21 @@ m (the navigation function's own margin round a map)."""
 SNAP = 1.0
 """The grid's corners are whole multiples of this, m, so it stays the same grid, and its
 navigation function is reused, while the robot moves within it and nobody new stands."""
+
+
+def pedestrian_indices(world: World) -> list:
+    """Indices of the world's one-circle pedestrians."""
+    return [i for i, o in enumerate(world.obstacles)
+            if o.kind == "pedestrian" and len(o.centers) == 1]
+
+
+def matched(position, expected, gate) -> tuple[np.ndarray, np.ndarray]:
+    """Each person seen now (``position`` (n, 2)) matched to the nearest of last plan's people
+    where they were predicted to be (``expected`` (m, 2), m >= 1): the index of that one and
+    whether they are within ``gate`` (m) of it, each (n,)."""
+    gap = np.linalg.norm(position[:, None, :] - expected[None, :, :], axis=2)
+    match = np.argmin(gap, axis=1)
+    return match, gap[np.arange(len(position)), match] <= gate
 
 
 class StandingPeople:

@@ -18,7 +18,6 @@ from ..core.solver_config import SolverConfig
 from ..core.terms import TERM_NAMES
 from ..core.world import World
 from ..perception.standing import StandingPeople
-from ..perception.walkers import SpeedingUp
 from .behaviours import backup, docking
 from .behaviours.stall import StallMonitor
 from .exact import loader as exact
@@ -95,7 +94,6 @@ class Planner:
         self._previous_target = None
         self._fallbacks, self._warned = 0, False
         self.stall = StallMonitor(self.config)
-        self.speeding_up = SpeedingUp(self.config)
         self.standing = StandingPeople(self.config)
         self.last_evaluator = None
 
@@ -132,7 +130,6 @@ class Planner:
         self._previous_target = None
         self._fallbacks, self._warned = 0, False
         self.stall.reset()
-        self.speeding_up.reset()
         self.standing.reset()
 
     def plan(self, state: RobotState, world: World, goal, *, dock: bool = True,
@@ -194,8 +191,6 @@ class Planner:
         trouble = []
         level = self._try(trouble, "the stall monitor", self.stall.update, state, goal) or 0
         config = self.stall.config_for(level)
-        world = self._try(trouble, "the walkers' speeds", self.speeding_up.update, world) \
-            or world
         world = self._try(trouble, "the standing people", self.standing.update, world,
                           (state.x, state.y), goal) or world
         starts = self._try(trouble, "the starts", structured_starts, state, goal, self.config,
