@@ -223,7 +223,7 @@ class PlannerConfig:
                                               ttg_along_nf=False, sigma_dynamic_growth=0.0))
         changes.setdefault("docking", DockingConfig(arrival_radius=0.0, radius_from_reach=False,
                                                     follow=False, turn_in_place=0.0,
-                                                    region_points=0, curves=0,
+                                                    region_points=0,
                                                     arrival_at_tolerance=False))
         changes.setdefault("stall", StallConfig(levels=0, back_up=0.0, dodge=False,
                                                   turn_to_goal=0.0, judge_beyond=0.0,

@@ -77,21 +77,8 @@ class DockingConfig:
     standing beside the goal the last 0.2 m are the riskiest of the way (docs/method.md
     section 7.1). On by default: it won on the tuning episodes (docs/results.md)."""
 
-    curves: int = 0
-    """Our extension, a count (0: off, as in :meth:`PlannerConfig.paper`): when neither the
-    straight way to the goal point nor a point of the goal's region passes docking's test
-    within ``radius`` (the last metres), try arriving at the goal point along the law's own
-    curves: the target pose on the goal with its heading turned from the line of sight by this
-    many angles evenly across the box's ``theta`` range (``bounds.theta_max``; 0, the straight
-    way, left out), at the speed limit, from where the robot stands, no turn in place first.
-    Each is judged by the same survivability test and must arrive within the horizon; the
-    cheapest that passes is the plan. Every docking way so far is a straight line, and a
-    person standing on or beside that line fails all of them while the law, which reaches a
-    pose from any side, can curve round the person to the same goal (docs/method.md section
-    7.1). 8 puts the headings 0.25 rad apart across the default box's +-1 rad."""
-
     def __post_init__(self):
-        check_integers(self, {"region_points": 0, "curves": 0})
+        check_integers(self, {"region_points": 0})
         validate_fields(self, {"radius": dict(low=0.0), "min_survival": dict(low=0.0, high=1.0),
                                 "arrival_radius": dict(low=0.0),
                                 "turn_in_place": dict(low=0.0, high=math.pi)})

@@ -27,8 +27,7 @@ def dock(evaluator: Evaluator, config: PlannerConfig, goal_tolerance: float = 0.
     (until arrival, see :func:`arrival_survival`) is above ``min_survival``; else, with
     ``docking.region_points`` and a ``goal_tolerance`` (m, the task's) above the arrival
     radius, the cheapest passing trajectory to a point of the goal's region
-    (:func:`region_targets`); else, with ``docking.curves``, the cheapest passing trajectory
-    that arrives at the goal along one of the law's curves (:func:`curve_z`); else None."""
+    (:func:`region_targets`); else None."""
     state, goal = evaluator.cycle.state, evaluator.cycle.goal
     docking = config.docking
     distance = math.hypot(goal[0] - state.x, goal[1] - state.y)
@@ -39,11 +38,11 @@ def dock(evaluator: Evaluator, config: PlannerConfig, goal_tolerance: float = 0.
     def survival_until_arrival(evaluated, point):
         return until_arrival(evaluated, point, goal, goal_tolerance, config)
 
-    def cheapest(candidates, arriving=False):     # (evaluation, how, target) each
+    def cheapest(candidates):     # (evaluation, how, target) each
         passing = []
         for candidate, how, target in candidates:
             step, reached = survival_until_arrival(candidate, target)
-            if passes(candidate, step, reached, config, arriving):
+            if passes(candidate, step, reached, config):
                 passing.append((float(candidate.costs.total[0]), candidate, how, step,
                                 reached, target))
         return (len(passing), min(passing, key=lambda entry: entry[0])) if passing else None
@@ -66,45 +65,15 @@ def dock(evaluator: Evaluator, config: PlannerConfig, goal_tolerance: float = 0.
                            f"point's survivability until arrival is {survival:.2f}, not above "
                            f"{docking.min_survival:g}; the cheapest of {count} passing points "
                            f"{off:.2f} m from it; {how} ({_survived(step, reached, config)})")
-    if docking.curves == 0 or distance > docking.radius:
-        return None
-    zs = curve_z(state.pose, goal, config)
-    curves = evaluator.evaluate(zs)
-    found = cheapest(((curves[[row]], f"its heading there {z[1]:+.2f} rad off the line of "
-                       "sight", goal) for row, z in enumerate(zs)), arriving=True)
-    if found is None:
-        return None
-    count, (_, candidate, how, step, reached, _) = found
-    return candidate, (f"docked along a curve: the straight way's survivability until arrival "
-                       f"is {survival:.2f}, not above {docking.min_survival:g}, and no point of "
-                       f"the goal's region passed; the cheapest of {count} passing curves to the "
-                       f"goal, {how} ({_survived(step, reached, config)})")
+    return None
 
 
-def curve_z(pose, goal, config: PlannerConfig) -> np.ndarray:
-    """The z of the law's curves to ``goal`` that docking tries (``docking.curves``, (n, 4)):
-    the target pose on the goal, its heading turned from the line of sight by ``n`` angles
-    evenly across the box's ``theta`` range (0, the straight way, left out; an odd count's
-    extra angle on the left, positive side), at the speed limit, from ``pose`` (no turn in
-    place first)."""
-    count, theta_max = config.docking.curves, config.bounds.theta_max
-
-    def side(n):      # n angles evenly over (0, theta_max]
-        return theta_max * np.arange(1, n + 1) / max(n, 1)
-
-    zs = np.tile(docking_z(pose, goal, config), (count, 1))
-    zs[:, 1] = np.concatenate([-side(count // 2)[::-1], side(count - count // 2)])
-    return clip_to_bounds(zs, config)
-
-
-def passes(evaluated: Evaluation, step, survival: float, config: PlannerConfig,
-           arriving: bool = False) -> bool:
+def passes(evaluated: Evaluation, step, survival: float, config: PlannerConfig) -> bool:
     """Whether a docking way (the first row of ``evaluated``, read ``(step, survival)`` by
     :func:`until_arrival`) passes docking's test: survivability above ``min_survival`` and a
-    finite exact cost; with ``arriving`` (the curves) it must also arrive within the horizon."""
+    finite exact cost."""
     return (survival > config.docking.min_survival
-            and math.isfinite(evaluated.costs.total[0])
-            and not (arriving and step is None))
+            and math.isfinite(evaluated.costs.total[0]))
 
 
 def _survived(step, survival, config: PlannerConfig) -> str:
