@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState
-from dsmpepc_nlp.core.control_law import rollout, target_pose
+from dsmpepc_nlp.core.control_law import rollout
 from dsmpepc_nlp.core.cost_config import SmoothingConfig
 from dsmpepc_nlp.core.costs import assemble
 from dsmpepc_nlp.core.exact_cost import evaluate, exact_geometry
@@ -534,24 +534,6 @@ def test_the_final_polish_shares_its_walks_over_the_threads_and_ends_the_same(mo
         two = alone.solve(Evaluator(cycle), starts)
         assert len(alone.polish.last["threads"]) == 1
         _assert_same_records(one, two)
-
-
-def test_nudge_starts_put_the_target_straight_ahead_by_whole_robot_radii():
-    state, goal = RobotState(1.0, -2.0, 0.7), np.array([-4.0, 3.0])   # the goal off to the side
-    starts = structured_starts(state, goal, CONFIG, solver=SolverConfig().replace(nudges=2))
-    radius = CONFIG.robot.bounding_radius
-    for k in (1, 2):
-        z = starts[f"nudge-{k}"]
-        assert z[3] == CONFIG.robot.v_limit
-        target = np.asarray(target_pose(z, state.pose), dtype=float)
-        ahead = np.array([state.x, state.y]) + k * radius * np.array([np.cos(0.7), np.sin(0.7)])
-        np.testing.assert_allclose(target[:2], ahead, atol=1e-12)
-        assert abs(target[2] - 0.7) < 1e-12
-    assert "nudge-3" not in starts
-    default = structured_starts(state, goal, CONFIG)         # off by default
-    assert not any(name.startswith("nudge") for name in default)
-    with pytest.raises(ValueError, match="nudges"):
-        SolverConfig().replace(nudges=-1)
 
 
 def test_use_screen_replaces_the_screened_points_and_keeps_the_spread_starts():

@@ -7,7 +7,6 @@ speed and distance to its goal, gap, both z).
 Options change the NLP's starts only; the episode and the reference stay the command's::
 
     python tools/crosscheck_starts.py t-corridor                  # the defaults
-    python tools/crosscheck_starts.py t-corridor --nudges 2       # multistart.nudges
     python tools/crosscheck_starts.py t-corridor --oracle         # + the reference's own z
     python tools/crosscheck_starts.py hall --n-screen 512 --n-solved 4 --time
     python tools/crosscheck_starts.py hall --extra edges          # theta-delta edge starts
@@ -115,7 +114,6 @@ def rank_lines(log: list, k: int) -> list:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenario")
-    parser.add_argument("--nudges", type=int, default=0)
     parser.add_argument("--n-screen", type=int, default=256)
     parser.add_argument("--n-solved", type=int, default=3)
     parser.add_argument("--solver", choices=("nlp", "fast"), default="nlp",
@@ -180,7 +178,7 @@ def main() -> None:
         return starts
 
     planner_module.structured_starts = with_extra
-    solver = SolverConfig.named(args.solver).replace(nudges=args.nudges, n_screen=args.n_screen,
+    solver = SolverConfig.named(args.solver).replace(n_screen=args.n_screen,
                                                      n_solved=args.n_solved)
     if args.distinct is not None:
         solver = solver.replace(distinct=args.distinct)

@@ -84,15 +84,9 @@ class MultistartSettings:
     """|delta| of the hard-turn starts, rad (near the box's edge)."""
     turn_distance: float = 2.0
     """Target distance r of the turn starts, m."""
-    nudges: int = 0
-    """Starts straight ahead at ``v_limit`` with targets 1, 2, ... robot bounding radii away
-    (``nudge-1``, ``nudge-2``): the law's shortest moves, which a robot edging forward between
-    obstacles takes. The screen draws r uniformly over the box, so under 8 % of its points lie
-    within 0.6 m; two nudges find the best move of the t-corridor's stalled cycles, but they
-    lost on the tuning episodes, so they are off by default (docs/design.md, "Nudges")."""
 
     def __post_init__(self):
-        check_integers(self, {"n_spread": 0, "n_screen": 0, "n_solved": 1, "nudges": 0})
+        check_integers(self, {"n_spread": 0, "n_screen": 0, "n_solved": 1})
         validate_fields(self, {"distinct": dict(low=0.0, high=1.0),
                                "soft_turn": dict(low=0.0), "hard_turn": dict(low=0.0),
                                "turn_distance": dict(low=0.0, low_open=True)})

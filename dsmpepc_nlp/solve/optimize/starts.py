@@ -35,9 +35,7 @@ def structured_starts(state: RobotState, goal, config: PlannerConfig,
 
     ``warm`` (last plan's target re-expressed in the robot's new frame, when given), ``stop``,
     ``goal`` (target on the goal, facing along the line of sight), soft and hard turns both ways
-    (their shapes: ``solver.multistart``'s ``soft_turn``, ``hard_turn`` and ``turn_distance``),
-    and ``multistart.nudges`` short moves straight ahead (``nudge-1``: target one bounding
-    radius ahead, ``nudge-2`` two, ...; heading kept, ``v_max = v_limit``).
+    (their shapes: ``solver.multistart``'s ``soft_turn``, ``hard_turn`` and ``turn_distance``).
     """
     solver = SolverConfig() if solver is None else solver
     shapes = solver.multistart
@@ -58,9 +56,6 @@ def structured_starts(state: RobotState, goal, config: PlannerConfig,
                         ("hard-left", -hard), ("hard-right", hard)):
         # delta = phi - los: a negative delta puts the target to the robot's left.
         starts[name] = np.array([distance_r, 0.0, delta, v_limit])
-    for k in range(1, shapes.nudges + 1):
-        # theta = delta = 0 with the target straight ahead: the same heading, k radii on.
-        starts[f"nudge-{k}"] = np.array([k * config.robot.bounding_radius, 0.0, 0.0, v_limit])
     return {name: clip_to_bounds(z, config) for name, z in starts.items()}
 
 
