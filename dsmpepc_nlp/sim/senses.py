@@ -74,7 +74,8 @@ class Senses:
             lidar = profile.lidar
             self.local_map = LocalMap(LocalMapConfig(
                 size=lidar.window, resolution=lidar.resolution,
-                obstacle_max_range=lidar.range_max, raytrace_max_range=lidar.range_max))
+                obstacle_max_range=lidar.range_max, raytrace_max_range=lidar.range_max,
+                decay=lidar.decay))
             self.local_map.prepare()
         self.tracker = None if profile.detector is None else PeopleTracker(profile.tracker)
         self.pending = collections.deque()        # detections not yet handed over

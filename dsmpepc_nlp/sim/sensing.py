@@ -57,6 +57,9 @@ class LidarSettings:
     """Side of the square local map that rolls with the robot, m (our choice)."""
     resolution: float = 0.05
     """Cell side of the local map, m (Nav2's costmap default)."""
+    decay: float | None = None
+    """s: a mark not seen again for this long is forgotten (``LocalMapConfig.decay``); None
+    keeps marks until a beam sees through them, as Nav2's obstacle layer does."""
     object_margin: float = 0.1
     """m: a return within an object's radius plus this of a moving object the planner is given
     (a person, another robot) is not marked into the map: the planner plans round it as a
@@ -75,6 +78,8 @@ class LidarSettings:
             "resolution": dict(low=0.01, high=1.0),
             "object_margin": dict(low=0.0, high=10.0),
         })
+        if self.decay is not None:
+            validate_fields(self, {"decay": dict(low=0.0, low_open=True, high=1000.0)})
         if not self.range_min < self.range_max:
             raise InputError(f"LidarSettings.range_min={shown(self.range_min)}: expected below "
                              f"range_max ({shown(self.range_max)})")
