@@ -22,6 +22,7 @@ import numpy as np
 from ..core.errors import InputError
 from ..core.world import DynamicObstacle
 from ..perception import Detections, LaserScan, LocalMap, LocalMapConfig, PeopleTracker
+from ..perception.scan import returns_off_objects
 from .raster import Lattice, image_boxes, rasterise
 from .shapes import describe, static_part
 
@@ -85,20 +86,6 @@ def scan_ranges(scan: dict) -> np.ndarray:
     return np.where(valid, ranges, np.where(miss, np.inf, np.nan))
 
 
-def off_objects(ranges, pose, angles, obstacles, margin: float = OBJECT_MARGIN) -> np.ndarray:
-    """``ranges`` with the returns within ``margin`` of a moving obstacle's circles NaN."""
-    if not obstacles:
-        return ranges
-    heading = pose[2] + angles
-    with np.errstate(invalid="ignore"):
-        hits = pose[:2] + ranges[:, None] * np.stack([np.cos(heading), np.sin(heading)], 1)
-    centres = np.concatenate([o.centers for o in obstacles])
-    reach = np.concatenate([o.radii for o in obstacles]) + margin
-    gap = np.linalg.norm(hits[:, None, :] - centres[None], axis=-1) - reach[None]
-    on_object = np.isfinite(ranges) & np.any(gap <= 0.0, axis=1)
-    return np.where(on_object, np.nan, ranges)
-
-
 class LidarInput:
     """The robot's IR-SIM lidar into a rolling local map (module docstring)."""
 
@@ -121,7 +108,7 @@ class LidarInput:
         scan = self.robot.get_lidar_scan()
         pose = np.asarray(self.lidar.lidar_origin, dtype=float).reshape(-1)[:3]
         angles = np.asarray(self.lidar.angle_list, dtype=float)
-        ranges = off_objects(scan_ranges(scan), pose, angles, planned)
+        ranges = returns_off_objects(scan_ranges(scan), pose, angles, planned, OBJECT_MARGIN)
         range_min = max(float(scan["range_min"]), 0.0)
         self.local_map.update(LaserScan.from_angles(ranges, angles, range_min,
                                                     float(scan["range_max"]), pose=pose,

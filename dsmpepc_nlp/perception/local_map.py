@@ -32,7 +32,7 @@ from ..core.world import warm_up_map_updates
 from . import raycast
 from .raycast import cell_index, traverse, window_fraction
 from .scan import LaserScan
-from .sensed_grid import SensedGrid
+from .sensed_grid import SensedGrid, mask_at
 
 UNKNOWN, FREE, OCCUPIED = 0, 1, 2
 """A cell's state in :attr:`LocalMap._state` (int8)."""
@@ -347,13 +347,7 @@ class LocalMap:
         if pts.ndim < 1 or pts.shape[-1] != 2 or not np.all(np.isfinite(pts)):
             raise InputError(f"points={shown(points)}: expected finite world positions (m) of "
                              "shape (..., 2)")
-        cells = np.floor((pts - self.origin) / self._config.resolution)
-        n = self._config.cells
-        inside = np.all((cells >= 0) & (cells < n), axis=-1)
-        result = np.zeros(pts.shape[:-1], dtype=bool)
-        index = cells[inside].astype(np.intp)
-        result[inside] = self._seen_free[index[:, 1], index[:, 0]]
-        return result
+        return mask_at(self._seen_free, self.origin, self._config.resolution, pts)
 
 
 def prior_on_lattice(prior, resolution):

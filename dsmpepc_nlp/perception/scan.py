@@ -151,3 +151,21 @@ class LaserScan:
                   "below_range_min": int(np.count_nonzero(below)),
                   "above_range_max": int(np.count_nonzero(above))}
         return hits | no_return, counts
+
+
+def returns_off_objects(ranges, pose, angles, obstacles, margin: float) -> np.ndarray:
+    """``ranges`` (m, per beam at ``angles`` rad from the sensor's ``pose`` (x, y, yaw)) with
+    the returns within ``margin`` of a circle of ``obstacles`` (DynamicObstacles the planner
+    is given already) made NaN: a moving object is planned round as itself, not marked into
+    the map (as people-aware costmaps do)."""
+    ranges = np.asarray(ranges, dtype=float)
+    if not obstacles:
+        return ranges
+    heading = pose[2] + np.asarray(angles, dtype=float)
+    with np.errstate(invalid="ignore"):
+        hits = pose[:2] + ranges[:, None] * np.stack([np.cos(heading), np.sin(heading)], 1)
+    centres = np.concatenate([o.centers for o in obstacles])
+    reach = np.concatenate([o.radii for o in obstacles]) + margin
+    gap = np.linalg.norm(hits[:, None, :] - centres[None], axis=-1) - reach[None]
+    on_object = np.isfinite(ranges) & np.any(gap <= 0.0, axis=1)
+    return np.where(on_object, np.nan, ranges)

@@ -53,17 +53,24 @@ class SensedGrid(OccupancyGrid):
     def is_seen_free(self, points) -> np.ndarray:
         """Whether a beam has crossed the cell at each of ``points`` (..., 2), bool (...);
         False outside the grid (never seen)."""
-        pts = np.asarray(points, dtype=float)
-        cells = np.floor((pts - self.origin) / self.resolution)
-        ny, nx = self.shape
-        finite = np.all(np.isfinite(cells), axis=-1)
-        cells = np.where(np.isfinite(cells), cells, -1.0)
-        inside = finite & (cells[..., 0] >= 0) & (cells[..., 0] < nx) & (cells[..., 1] >= 0) \
-            & (cells[..., 1] < ny)
-        result = np.zeros(pts.shape[:-1], dtype=bool)
-        index = cells[inside].astype(np.intp)
-        result[inside] = self._seen[index[:, 1], index[:, 0]]
-        return result
+        return mask_at(self._seen, self.origin, self.resolution, points)
 
 
-__all__ = ["SensedGrid"]
+def mask_at(mask, origin, resolution, points) -> np.ndarray:
+    """``mask[iy, ix]`` (bool, a grid's cells from ``origin`` at ``resolution``) at the cell
+    of each world point of ``points`` (..., 2); False outside the grid or at a non-finite
+    point."""
+    pts = np.asarray(points, dtype=float)
+    with np.errstate(invalid="ignore"):
+        cells = np.floor((pts - origin) / resolution)
+    ny, nx = mask.shape
+    cells = np.where(np.isfinite(cells), cells, -1.0)
+    inside = ((cells[..., 0] >= 0) & (cells[..., 0] < nx) & (cells[..., 1] >= 0)
+              & (cells[..., 1] < ny))
+    result = np.zeros(pts.shape[:-1], dtype=bool)
+    index = cells[inside].astype(np.intp)
+    result[inside] = mask[index[:, 1], index[:, 0]]
+    return result
+
+
+__all__ = ["SensedGrid", "mask_at"]

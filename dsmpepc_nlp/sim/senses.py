@@ -24,6 +24,7 @@ import numpy as np
 from ..core.config import PlannerConfig, RobotState
 from ..core.world import DynamicObstacle, World
 from ..perception import Detections, LaserScan, LocalMap, LocalMapConfig, PeopleTracker
+from ..perception.scan import returns_off_objects
 from .sensing import SensingProfile
 
 
@@ -74,8 +75,7 @@ class Senses:
             lidar = profile.lidar
             self.local_map = LocalMap(LocalMapConfig(
                 size=lidar.window, resolution=lidar.resolution,
-                obstacle_max_range=lidar.range_max, raytrace_max_range=lidar.range_max,
-                decay=lidar.decay))
+                obstacle_max_range=lidar.range_max, raytrace_max_range=lidar.range_max))
             self.local_map.prepare()
         self.tracker = None if profile.detector is None else PeopleTracker(profile.tracker)
         self.pending = collections.deque()        # detections not yet handed over
@@ -163,17 +163,9 @@ class Senses:
         sensor, offsets, ranges = self.scan_ranges(state, positions, radii, others)
         pose = np.array([believed[0] + lidar.mount_x * math.cos(believed[2]),
                          believed[1] + lidar.mount_x * math.sin(believed[2]), believed[2]])
-        if planned:
-            heading = pose[2] + offsets
-            with np.errstate(invalid="ignore"):
-                hits = pose[:2] + ranges[:, None] * np.stack([np.cos(heading),
-                                                              np.sin(heading)], 1)
-            centres = np.concatenate([o.centers for o in planned])
-            reach = np.concatenate([o.radii for o in planned]) + lidar.object_margin
-            gap = np.linalg.norm(hits[:, None, :] - centres[None], axis=-1) - reach[None]
-            on_object = np.isfinite(ranges) & np.any(gap <= 0.0, axis=1)
-            ranges = np.where(on_object, np.nan, ranges)
-            self.counts["returns_on_objects"] += int(on_object.sum())
+        kept = returns_off_objects(ranges, pose, offsets, planned, lidar.object_margin)
+        self.counts["returns_on_objects"] += int(np.sum(np.isnan(kept) & ~np.isnan(ranges)))
+        ranges = kept
         scan = LaserScan(ranges, float(-lidar.fov / 2), float(offsets[1] - offsets[0]),
                          lidar.range_min, lidar.range_max, pose=pose, stamp=float(t))
         self.local_map.update(scan)

@@ -20,6 +20,7 @@ from ..core.world import World
 from ..perception.standing import StandingPeople
 from .behaviours import backup, docking
 from .behaviours.stall import StallMonitor
+from .behaviours.ways import stacked
 from .exact import loader as exact
 from .exact.cycle import Cycle
 from .exact.evaluator import Evaluation, Evaluator
@@ -319,9 +320,7 @@ class Planner:
         not move). Its exact cost, or inf when even that cannot be measured."""
         trajectory = braking(state, self.config)
         try:
-            batch = Trajectory(*(np.asarray(getattr(trajectory, f.name))[None]
-                                 for f in dataclasses.fields(Trajectory)))
-            cost = evaluate(batch, world, goal, self.config)[0]
+            cost = evaluate(stacked([trajectory]), world, goal, self.config)[0]
             fun = float(cost.total) if math.isfinite(float(cost.total)) else math.inf
         except Exception:  # noqa: BLE001 - a robot in collision must still get its brake
             cost, fun = _unmeasured(trajectory), math.inf

@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 from ..core.config import PlannerConfig, RobotConfig, RobotState
-from ..core.control_law import Trajectory, arc_step
+from ..core.control_law import Trajectory, arc_step, rate_limit
 from ..core.errors import InputError
 from ..core.geometry import body_to_world
 from .optimize.starts import stop_z
@@ -69,12 +69,6 @@ def bounded_control(v: float, omega: float, robot: RobotConfig) -> tuple:
             min(max(omega, -robot.omega_limit), robot.omega_limit))
 
 
-def _toward_zero(value: float, limit: float, dt: float) -> float:
-    """``value`` brought toward 0 by at most ``limit * dt`` (all the way with no limit)."""
-    step = limit * dt
-    return math.copysign(max(abs(value) - step, 0.0), value) if math.isfinite(step) else 0.0
-
-
 def braking(state: RobotState, config: PlannerConfig) -> Trajectory:
     """The trajectory of a robot in collision (Lemma 3): from its measured ``(v, omega)``,
     each step brought toward 0 as hard as ``accel_limit`` and ``alpha_limit`` allow, within
@@ -86,8 +80,8 @@ def braking(state: RobotState, config: PlannerConfig) -> Trajectory:
     v, omega = np.zeros(n), np.zeros(n)
     speed, turn = float(state.v), float(state.omega)
     for k in range(n):
-        speed = _toward_zero(speed, robot.accel_limit, dt)
-        turn = _toward_zero(turn, robot.alpha_limit, dt)
+        speed = float(rate_limit(0.0, speed, robot.accel_limit, dt, 0.0))  # toward 0
+        turn = float(rate_limit(0.0, turn, robot.alpha_limit, dt, 0.0))
         speed, turn = bounded_control(speed, turn, robot)
         v[k], omega[k] = speed, turn
         poses[k + 1] = arc_step(poses[k], speed, turn, dt)

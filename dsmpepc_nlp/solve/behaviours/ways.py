@@ -12,6 +12,7 @@ import numpy as np
 
 from ...core.config import PlannerConfig
 from ...core.control_law import Trajectory, commanded
+from ...core.geometry import footprint_points
 from ..plan import Plan
 from ..start_state import bounded_control
 from . import docking
@@ -140,9 +141,7 @@ def reverses_seen(trajectories: Trajectory, world, config: PlannerConfig) -> np.
     circles = np.asarray(config.robot.footprint, dtype=float)
     poses = trajectories.poses[:, 1:]                                            # (n, N, 3)
     heading = np.stack([np.cos(poses[..., 2]), np.sin(poses[..., 2])], axis=-1)
-    normal = np.stack([-heading[..., 1], heading[..., 0]], axis=-1)
-    centres = (poses[..., None, :2] + circles[:, 0, None] * heading[..., None, :]
-               + circles[:, 1, None] * normal[..., None, :])                     # (n, N, C, 2)
+    centres = footprint_points(poses, circles)                                  # (n, N, C, 2)
     rear = centres - circles[:, 2, None] * heading[..., None, :]
     seen = check(centres) & check(rear)                                          # (n, N, C)
     reversing = np.asarray(trajectories.v) < 0.0                                 # (n, N)
