@@ -250,11 +250,3 @@ def test_a_profile_sets_the_trackers_settings(tmp_path):
     path.write_text("base: tracked\ntracker: {confirm_hit: 2}\n")
     with pytest.raises(InputError, match="did you mean 'confirm_hits'"):
         load_profile(path)
-
-
-def test_the_lidar_may_forget_marks_it_does_not_see_again():
-    profile = load_profile("lidar").with_lidar(decay=1.5)
-    assert _senses(profile).local_map.config.decay == 1.5
-    assert _senses(load_profile("lidar")).local_map.config.decay is None
-    with pytest.raises(InputError, match="decay"):
-        LidarSettings(decay=0.0)

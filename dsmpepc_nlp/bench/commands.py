@@ -214,7 +214,7 @@ def register(sub, scenario_options) -> None:
     options shared with ``run``. Each parser's ``func`` is the command to dispatch to."""
     p = sub.add_parser("crosscheck", help="NLP vs sampling (exact costs) on every cycle of an "
                        "episode of SCENARIO (first robot; the episode is driven by the sampler)")
-    scenario_options(p)
+    scenario_options(p, sensing=False)   # the episode is driven by the sampler on the truth
     add_crosscheck(p)
     p.set_defaults(func=run_crosscheck)
     p = sub.add_parser("bench", help="time the planners (IPOPT, fast NLP, sampling at equal "

@@ -57,9 +57,6 @@ class LidarSettings:
     """Side of the square local map that rolls with the robot, m (our choice)."""
     resolution: float = 0.05
     """Cell side of the local map, m (Nav2's costmap default)."""
-    decay: float | None = None
-    """s: a mark not seen again for this long is forgotten (``LocalMapConfig.decay``); None
-    keeps marks until a beam sees through them, as Nav2's obstacle layer does."""
     object_margin: float = 0.1
     """m: a return within an object's radius plus this of a moving object the planner is given
     (a person, another robot) is not marked into the map: the planner plans round it as a
@@ -78,8 +75,6 @@ class LidarSettings:
             "resolution": dict(low=0.01, high=1.0),
             "object_margin": dict(low=0.0, high=10.0),
         })
-        if self.decay is not None:
-            validate_fields(self, {"decay": dict(low=0.0, low_open=True, high=1000.0)})
         if not self.range_min < self.range_max:
             raise InputError(f"LidarSettings.range_min={shown(self.range_min)}: expected below "
                              f"range_max ({shown(self.range_max)})")
@@ -100,8 +95,10 @@ class DetectorSettings:
     """Probability that a visible person is not detected in a cycle (our choice)."""
     false_rate: float = 0.2
     """Mean false detections per cycle (Poisson), anywhere in range and view (our choice)."""
-    latency: float = 0.1
-    """Age of the detections handed over, s, rounded to whole control periods (our choice)."""
+    latency: float = 0.0
+    """Age of the detections handed over, s, rounded to whole control periods (our choice: none;
+    the detector is simulated once a control period, so a latency shorter than half of one,
+    0.1 s at 0.2-0.25 s, rounds to none)."""
 
     def __post_init__(self):
         validate_fields(self, {
@@ -254,12 +251,8 @@ def parse_profile(data, source: str = "<mapping>", default_name: str = "custom")
     name = data.get("name", default_name)
     if not isinstance(name, str) or not name:
         raise InputError(f"{where}: name: {shown(name)}: must be a non-empty string")
-    parts = {}
-    for key, kind in SETTINGS.items():
-        value = data.get(key, getattr(base, key)) if key in data else getattr(base, key)
-        if key in data:
-            value = _part(data[key], kind, getattr(base, key), f"{where}: {key}")
-        parts[key] = value
+    parts = {key: _part(data[key], kind, getattr(base, key), f"{where}: {key}")
+             if key in data else getattr(base, key) for key, kind in SETTINGS.items()}
     return SensingProfile(name, **parts)
 
 

@@ -201,7 +201,7 @@ def episode_figure(episode, *, cycle: int | None = None, path=None):
 def draw_believed_map(ax, episode, robot: int = 0) -> None:
     """Under a profile with a lidar, robot ``robot``'s local map at the end of the run: its
     occupied cells in translucent orange over the true map the frame draws."""
-    grid = episode.believed_grid(robot) if hasattr(episode, "believed_grid") else None
+    grid = episode.believed_grid(robot)
     if grid is None or not grid.occupied.any():
         return
     x0, y0, x1, y1 = grid.bounds

@@ -269,7 +269,9 @@ def warm_up() -> bool:
     module = wait_for_kernel()
     if module is None:
         return False
-    _run_once(module, [PlannerConfig()])
+    if not _STATE.get("warm"):        # once a process: every planner's prepare calls it
+        _run_once(module, [PlannerConfig()])
+        _STATE["warm"] = True
     return True
 
 
