@@ -345,3 +345,17 @@ def test_the_benchmark_tool_runs(capsys):
     result = json.loads(capsys.readouterr().out)
     assert result["cycles"] == 20 and result["median_ms"] > 0.0
     assert result["confirmed_at_end"] == 4
+
+
+def test_a_planner_imports_no_scipy_optimize():
+    """Every planner imports the perception package (the standing map); the tracker's
+    assignment (scipy.optimize, ~0.4 s of imports) waits until a tracker assigns, so a fresh
+    process's first plan does not pay for it."""
+    import subprocess
+    import sys
+
+    code = ("import sys; import dsmpepc_nlp; from dsmpepc_nlp import Planner; "
+            "print('scipy.optimize' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120, check=True)
+    assert done.stdout.strip() == "False"

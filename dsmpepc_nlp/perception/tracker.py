@@ -18,7 +18,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from ..core.errors import InputError, finite_number, shown
 from ..core.world import DynamicObstacle
@@ -236,6 +235,10 @@ class PeopleTracker:
         cost = cost[np.ix_(useful_rows, useful_columns)]
         allowed = allowed[np.ix_(useful_rows, useful_columns)]
         outside = self.config.gate * (min(cost.shape) + 1)
+        # here, not at the top: scipy.optimize costs ~0.4 s of imports, and every planner
+        # imports this package (the standing map) whether or not it tracks anyone
+        from scipy.optimize import linear_sum_assignment
+
         picked_rows, picked_columns = linear_sum_assignment(np.where(allowed, cost, outside))
         keep = allowed[picked_rows, picked_columns]
         return (rows[useful_rows[picked_rows[keep]]],
