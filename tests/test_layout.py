@@ -34,6 +34,18 @@ def test_import_contracts_hold():
     assert status == 0, "an import contract is broken: run `lint-imports` for the details"
 
 
+def test_no_module_of_the_package_is_git_ignored():
+    """A module the checkout ignores is missing from every clean checkout (CI's, a user's clone)
+    while it still runs here: `build/` once swallowed a package's __init__.py."""
+    if not (ROOT / ".git").exists():
+        pytest.skip("not a git checkout")
+    modules = [str(p.relative_to(ROOT)) for p in _modules()]
+    found = subprocess.run(["git", "check-ignore", "--no-index", *modules], cwd=ROOT,
+                           capture_output=True, text=True)
+    ignored = found.stdout.split()
+    assert not ignored, f"git ignores these modules of the package: {ignored}"
+
+
 @pytest.mark.parametrize("path", _modules(), ids=lambda p: str(p.relative_to(PACKAGE)))
 def test_module_is_small(path):
     lines = len(path.read_text().splitlines())
