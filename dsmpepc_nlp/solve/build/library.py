@@ -1,10 +1,10 @@
 """The NLP's problem: the global graph of one configuration, compiled, and a solve's result.
 
 :class:`Problem` is the global cost graph (:mod:`~dsmpepc_nlp.solve.problem`) of one
-configuration and one object size, compiled to C (:mod:`~dsmpepc_nlp.solve.build.compiled`) and cached
-on disk; a cycle binds its parameters once (:meth:`Problem.bind`) and every evaluation after
-that is one C call. The solvers (:mod:`~dsmpepc_nlp.solve.optimize.solvers`) run on it and return a
-typed :class:`SolveResult`.
+configuration and one object size, compiled to C (:mod:`~dsmpepc_nlp.solve.build.compiled`)
+and cached on disk; a cycle binds its parameters once (:meth:`Problem.bind`) and every
+evaluation after that is one C call. The solvers (:mod:`~dsmpepc_nlp.solve.optimize.solvers`)
+run on it and return a typed :class:`SolveResult`.
 """
 
 from __future__ import annotations
@@ -16,12 +16,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...core.compile_cache import compile_enabled
 from ...core.config import PlannerConfig
 from ...core.solver_config import LocalSolverSettings, SolverConfig
-from . import background, compiled
 from .. import problem as graph
 from ..problem import parameters as settings
-from ...core.compile_cache import compile_enabled
+from . import background, compiled
 
 
 @dataclass(frozen=True)
