@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .bench import commands, failure_report
+from .bench import commands, failure_report, merge_tables, paired, results_table
 from .bench.params import PRESETS, preset_config
 from .core import options
 from .core.config import VARIANTS
@@ -264,6 +264,9 @@ def build_parser() -> argparse.ArgumentParser:
         sub.choices[name].epilog = epilog
         sub.choices[name].formatter_class = argparse.RawDescriptionHelpFormatter
     failure_report.register(sub)
+    paired.register(sub)
+    results_table.register(sub)
+    merge_tables.register(sub)
     irsim_commands.register(sub, metrics_table)
     return parser
 

@@ -35,13 +35,13 @@ def _close_figures():
 
 @pytest.fixture
 def tool():
-    """``tool("name")``: the module ``tools/name.py`` of the repository, loaded from its file
-    (the tools are scripts, not a package)."""
+    """``tool("name")``: the developer tool ``tools/dev/name.py`` of the repository, loaded from
+    its file (the tools are scripts, not a package; what users need is a ``dsmpepc`` command)."""
     import importlib.util
     from pathlib import Path
 
     def load(name):
-        path = Path(__file__).resolve().parents[1] / "tools" / f"{name}.py"
+        path = Path(__file__).resolve().parents[1] / "tools" / "dev" / f"{name}.py"
         spec = importlib.util.spec_from_file_location(name, path)
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)

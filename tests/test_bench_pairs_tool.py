@@ -1,4 +1,4 @@
-"""tools/bench_pairs.py: this checkout's plan time against another revision, alternated pairs."""
+"""tools/dev/bench_pairs.py: this checkout's plan time against another revision, alternated."""
 
 import json
 import math

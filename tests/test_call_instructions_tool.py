@@ -1,4 +1,5 @@
-"""tools/call_instructions.py: instructions a compiled call, this checkout against a revision."""
+"""tools/dev/call_instructions.py: instructions a compiled call, this checkout against another
+revision."""
 
 import shutil
 

@@ -1,4 +1,4 @@
-"""tools/coarse_screen.py: a coarser rollout as the screen's ranking, against the exact one."""
+"""tools/dev/coarse_screen.py: a coarser rollout as the screen's ranking, against the exact one."""
 
 import numpy as np
 import pytest

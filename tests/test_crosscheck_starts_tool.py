@@ -1,4 +1,4 @@
-"""tools/crosscheck_starts.py --walk-ranks: which polish seeds past the k-th win, and when."""
+"""tools/dev/crosscheck_starts.py --walk-ranks: which polish seeds past the k-th win, and when."""
 
 import types
 

@@ -1,4 +1,4 @@
-"""tools/crowd_compare.py: one replay driven by several planners, side by side."""
+"""tools/dev/crowd_compare.py: one replay driven by several planners, side by side."""
 
 import numpy as np
 import pytest

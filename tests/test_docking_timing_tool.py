@@ -1,4 +1,4 @@
-"""tools/docking_timing.py: docking's time with and without the goal's region, side by side."""
+"""tools/dev/docking_timing.py: docking's time with and without the goal's region, side by side."""
 
 import json
 

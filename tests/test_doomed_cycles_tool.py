@@ -1,4 +1,4 @@
-"""tools/doomed_cycles.py: every collision of a benchmark folder replayed plan by plan (the
+"""tools/dev/doomed_cycles.py: every collision of a benchmark folder replayed plan by plan (the
 same plans, or it says not), and the plans of its last seconds read for their survival."""
 
 import dataclasses

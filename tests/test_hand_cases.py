@@ -1,4 +1,4 @@
-"""Hand-worked cases for what the mutation check (tools/mutation_check.py) found untested:
+"""Hand-worked cases for what the mutation check (tools/dev/mutation_check.py) found untested:
 the law's curvature off the axes, arcs, several-circle obstacles, time to collision against
 moving obstacles along a trajectory and at the horizon's end. Each expected value is computed
 here from docs/method.md's formulas, not from the package's helpers."""

@@ -1,4 +1,4 @@
-"""tools/nav_rebuild.py: a moving goal's navigation function, the map's window kept or not."""
+"""tools/dev/nav_rebuild.py: a moving goal's navigation function, the map's window kept or not."""
 
 
 def test_a_kept_window_gives_the_values_of_a_build_from_nothing(capsys, tool):

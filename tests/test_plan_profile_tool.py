@@ -1,4 +1,4 @@
-"""tools/plan_profile.py: one CrowdNav episode (or ETH/UCY replay) run, then replayed plan by
+"""tools/dev/plan_profile.py: one CrowdNav episode (or ETH/UCY replay) run, then replayed plan by
 plan by a fresh planner (the same plans), each plan's speed over its horizon beside the speed
 the robot drove."""
 

@@ -1,4 +1,4 @@
-"""tools/prediction_error.py: the constant-velocity prediction's error by look-ahead."""
+"""tools/dev/prediction_error.py: the constant-velocity prediction's error by look-ahead."""
 
 
 import numpy as np

@@ -1,4 +1,4 @@
-"""tools/stuck_cycle.py: a logged cycle re-costed, the best sampled trajectory beside the stop."""
+"""tools/dev/stuck_cycle.py: a logged cycle re-costed: the best sampled trajectory, the stop."""
 
 import json
 

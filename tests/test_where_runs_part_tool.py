@@ -1,4 +1,4 @@
-"""tools/where_runs_part.py: two configurations on the same crowd replay, where the runs part."""
+"""tools/dev/where_runs_part.py: two configurations on one crowd replay, where the runs part."""
 
 import json
 from types import SimpleNamespace

@@ -62,7 +62,7 @@ def judged(plan: Plan, state, cycle, goal_tolerance: float = 0.0) -> tuple:
     horizon, their exact costs over the horizon lengthened by ``stall.judge_beyond`` (every
     one carried on past the horizon by :func:`docked_beyond`) and their
     :func:`arrival_estimate` (within ``goal_tolerance``, else ``docking.arrival_radius``), s.
-    What :func:`judge_turns` decides on, and ``tools/plan_profile.py`` prints."""
+    What :func:`judge_turns` decides on, and ``tools/dev/plan_profile.py`` prints."""
     config = cycle.config
     longer = lengthened(config, config.stall.judge_beyond)
     turns = turn_trajectories(plan, state, cycle.goal, config)

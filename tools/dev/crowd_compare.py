@@ -7,8 +7,8 @@ others (:func:`~dsmpepc_nlp.viz.plots.compare_figure`): the robot's whole path, 
 path, the outcome. It prints each run's outcome, time and nearest gap to anyone. The benchmark
 keeps only the episodes that fail; this shows how a run another planner wins went::
 
-    python tools/crowd_compare.py --data DIR --scene univ --episode 27 --out univ-27.png
-    python tools/crowd_compare.py --data DIR --scene zara2 --episode 18 --variants ds-mpepc orca
+    python tools/dev/crowd_compare.py --data DIR --scene univ --episode 27 --out univ-27.png
+    python tools/dev/crowd_compare.py --data DIR --scene zara2 --episode 18 --variants ds-mpepc orca
 
 ``--preset`` and ``--set`` configure the DS-MPEPC and MPEPC planners as the benchmark's do.
 """

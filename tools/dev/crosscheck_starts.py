@@ -6,17 +6,17 @@ defaults), plans every cycle with the NLP and with the 4096-sample reference as 
 speed and distance to its goal, gap, both z).
 Options change the NLP's starts only; the episode and the reference stay the command's::
 
-    python tools/crosscheck_starts.py t-corridor                  # the defaults
-    python tools/crosscheck_starts.py t-corridor --oracle         # + the reference's own z
-    python tools/crosscheck_starts.py hall --n-screen 512 --n-solved 4 --time
-    python tools/crosscheck_starts.py hall --extra edges          # theta-delta edge starts
-    python tools/crosscheck_starts.py t-corridor --r-power 2      # a screen denser at small r
-    python tools/crosscheck_starts.py hall --r-power 3 --r-power-share 0.5   # half of it
-    python tools/crosscheck_starts.py hall --distinct 0.3         # starts kept farther apart
-    python tools/crosscheck_starts.py hall --polish-starts 10     # more candidates polished
-    python tools/crosscheck_starts.py hall --polish-starts 16 --polish-scouts 0 --walk-ranks 5
-    python tools/crosscheck_starts.py hall --rolling --memory 4   # a screen spread over cycles
-    python tools/crosscheck_starts.py hall --episode paper        # the paper preset's states
+    python tools/dev/crosscheck_starts.py t-corridor                  # the defaults
+    python tools/dev/crosscheck_starts.py t-corridor --oracle         # + the reference's own z
+    python tools/dev/crosscheck_starts.py hall --n-screen 512 --n-solved 4 --time
+    python tools/dev/crosscheck_starts.py hall --extra edges          # theta-delta edge starts
+    python tools/dev/crosscheck_starts.py t-corridor --r-power 2      # a screen denser at small r
+    python tools/dev/crosscheck_starts.py hall --r-power 3 --r-power-share 0.5   # half of it
+    python tools/dev/crosscheck_starts.py hall --distinct 0.3         # starts kept farther apart
+    python tools/dev/crosscheck_starts.py hall --polish-starts 10     # more candidates polished
+    python tools/dev/crosscheck_starts.py hall --polish-starts 16 --polish-scouts 0 --walk-ranks 5
+    python tools/dev/crosscheck_starts.py hall --rolling --memory 4   # a screen spread over cycles
+    python tools/dev/crosscheck_starts.py hall --episode paper        # the paper preset's states
 
 ``--rolling`` screens the next ``n_screen`` points of the screen's 4096-point sequence each
 cycle (the reference's sequence is another seed's); ``--memory M`` adds the last plan's M

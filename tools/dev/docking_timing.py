@@ -7,8 +7,8 @@ facing away from it (each region point then behind a turn in place). Times
 median, with
 ``docking.region_points`` 0 and 8, side by side in one run::
 
-    python tools/docking_timing.py
-    python tools/docking_timing.py --plans 100 --json
+    python tools/dev/docking_timing.py
+    python tools/dev/docking_timing.py --plans 100 --json
 """
 
 from __future__ import annotations

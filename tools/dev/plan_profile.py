@@ -14,13 +14,14 @@ the speed the robot then drove at. It is how
 docs/results.md reads a stall where every plan creeps first and speeds up late, each next plan
 putting the burst off::
 
-    python tools/plan_profile.py --scene square --seed 0 --episode 385 --at 20 20.5 21
-    python tools/plan_profile.py --scene square --seed 0 --episode 385 --at 20 --set stall.levels=5
+    python tools/dev/plan_profile.py --scene square --seed 0 --episode 385 --at 20 20.5 21
+    python tools/dev/plan_profile.py --scene square --seed 0 --episode 385 --at 20 \\
+        --set stall.levels=5
 
 With ``--data DIR`` the episode is a replay of ``dsmpepc benchmark crowd --data DIR`` instead
 (``--scene`` eth, hotel, zara1, zara2, univ, or a recording; ``--duration`` its window)::
 
-    python tools/plan_profile.py --data DATA/ethucy --scene univ --seed 0 --episode 22 --at 5 6
+    python tools/dev/plan_profile.py --data DATA/ethucy --scene univ --seed 0 --episode 22 --at 5 6
 """
 
 from __future__ import annotations

@@ -8,8 +8,8 @@ with the exact cost. Prints the lowest-cost trajectory and the one that keeps th
 survivability at the horizon's end, beside the stop's. ``--set`` replaces a field of the run's
 configuration (as the benchmarks' ``--set``), for example a wider box::
 
-    python tools/stuck_cycle.py OUT/episodes/EPISODE.npz --cycle 94
-    python tools/stuck_cycle.py OUT/episodes/EPISODE.npz --cycle 94 --set bounds.delta_max=3.1
+    python tools/dev/stuck_cycle.py OUT/episodes/EPISODE.npz --cycle 94
+    python tools/dev/stuck_cycle.py OUT/episodes/EPISODE.npz --cycle 94 --set bounds.delta_max=3.1
 
 ``--cycle`` defaults to the last cycle the robot planned in; ``dsmpepc failures`` names each
 failed run's stuck cycle (``cycle`` in its failures.json). The cycle is costed at the stall

@@ -14,9 +14,9 @@ runs), its ratio to the exact one's, and how often the exact best of the ``--kee
 the coarse cost ranks first is more than 0.01 (the cross-check's tolerance) above the exact
 best of all the points::
 
-    python tools/coarse_screen.py t-corridor
-    python tools/coarse_screen.py hall --dt 0.4 0.5 1.0 --points 4096 --keep 64 --every 7
-    python tools/coarse_screen.py hall --cycles 13 23 42     # cycles the NLP misses
+    python tools/dev/coarse_screen.py t-corridor
+    python tools/dev/coarse_screen.py hall --dt 0.4 0.5 1.0 --points 4096 --keep 64 --every 7
+    python tools/dev/coarse_screen.py hall --cycles 13 23 42     # cycles the NLP misses
 """
 
 from __future__ import annotations

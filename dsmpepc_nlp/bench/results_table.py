@@ -1,4 +1,5 @@
-"""The product's defaults and the paper preset side by side, from their benchmark folders.
+"""``dsmpepc table ROOT``: the product's defaults and the paper preset side by side, from their
+benchmark folders.
 
 Reads a folder ``ROOT`` that holds, for each benchmark, the ``--out`` folder of a run with the
 product's defaults and one with ``--preset paper``: ``ROOT/<name>-product`` and
@@ -8,35 +9,35 @@ make them). Prints one markdown table of the navigation benchmarks (``dsmpepc be
 struck), timeout, deadlock, mean time to goal and path length of the successes, plan time
 (median over runs of each run's median, 95th percentile of their 95th percentiles), the failure
 classes (``<out>/failures.json``, written by ``dsmpepc failures OUT``) and the cases only that
-preset wins, with the two-sided sign test (``tools/paired.py``). Where a folder was classified
-with ``--escape``, a second table: the collisions no way out existed from, the goals never free
-and the success they leave a robot that drove the same way. Then a table of the built-in
-scenarios (``dsmpepc benchmark scenarios``), run by run::
+preset wins, with the two-sided sign test (``dsmpepc paired``, :mod:`.paired`). Where a folder
+was classified with ``--escape``, a second table: the collisions no way out existed from, the
+goals never free and the success they leave a robot that drove the same way. Then a table of
+the built-in scenarios (``dsmpepc benchmark scenarios``), run by run::
 
-    python tools/results_table.py ROOT
-    python tools/results_table.py ROOT --json
+    dsmpepc table ROOT
+    dsmpepc table ROOT --json
 
 Every figure is computed by the package's own summaries (``crowd_rows.summarise``,
-``barn.summarise``, ``runner.plan_time_summary``); nothing is typed in by hand.
+``barn.summarise``, ``runner.plan_time_summary``); nothing is typed in by hand. A benchmark
+run in parts (BARN's even and odd worlds) is made one folder first by ``dsmpepc merge``
+(:mod:`.merge_tables`).
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
-import sys
 from collections import Counter
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))   # the pairing of tools/paired.py
-
-from paired import compare, load  # noqa: E402
-
-from dsmpepc_nlp.bench import barn, crowd_rows  # noqa: E402
-from dsmpepc_nlp.bench.failure_report import REPORT, read_tables  # noqa: E402
-from dsmpepc_nlp.bench.failures import CLASSES  # noqa: E402
-from dsmpepc_nlp.bench.runner import mean  # noqa: E402
+from ..core.errors import InputError
+from ..core.jsonio import json_clean
+from . import barn, crowd_rows
+from .failure_report import REPORT
+from .failures import CLASSES
+from .merge_tables import one_table
+from .paired import compare, load
+from .runner import mean
 
 PRESETS = ("product", "paper")
 ORDER = ("barn", "crowdnav", "crowd")
@@ -45,8 +46,12 @@ VARIANT = "ds-mpepc"
 
 
 def pairs(root) -> list:
-    """``[(name, {preset: folder})]`` of every ``<name>-product`` with its ``<name>-paper``."""
+    """``[(name, {preset: folder})]`` of every ``<name>-product`` with its ``<name>-paper``;
+    InputError when ``root`` is not a folder or holds no such pair."""
     root = Path(root)
+    if not root.is_dir():
+        raise InputError(f"table ROOT {str(root)!r}: not a folder; expected a folder of "
+                         "<name>-product and <name>-paper --out folders")
     found = []
     for product in sorted(root.glob("*-product")):
         name = product.name[: -len("-product")]
@@ -54,25 +59,33 @@ def pairs(root) -> list:
         if product.is_dir() and paper.is_dir():
             found.append((name, {"product": product, "paper": paper}))
     if not found:
-        raise SystemExit(f"{root}: no <name>-product folder with its <name>-paper beside it")
+        raise InputError(f"table ROOT {str(root)!r}: no <name>-product folder with its "
+                         "<name>-paper beside it; expected the --out folders of a benchmark "
+                         "run with the product's defaults and with --preset paper")
     return found
 
 
 def table(folder: Path) -> tuple:
     """``(stem, meta, rows)`` of the one benchmark table in ``folder``."""
-    tables = read_tables(folder)
-    if len(tables) != 1:
-        raise SystemExit(f"{folder}: {len(tables)} benchmark tables, expected one")
-    stem, _, rows = tables[0]
-    meta = json.loads((folder / f"{stem}.json").read_text(encoding="utf-8")).get("meta", {})
-    return stem, meta, rows
+    stem, data = one_table(folder, "table")
+    return stem, data.get("meta", {}), data["rows"]
 
 
 def report_of(folder: Path) -> dict | None:
     """``dsmpepc failures``'s report of ``folder`` (``failures.json``); None when the folder
     was not classified."""
     path = folder / f"{REPORT}.json"
-    return json.loads(path.read_text(encoding="utf-8")) if path.exists() else None
+    if not path.exists():
+        return None
+    try:
+        report = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise InputError(f"report {str(path)!r}: cannot read ({exc}); remake it with "
+                         f"dsmpepc failures {str(folder)!r}") from None
+    if not isinstance(report, dict) or not isinstance(report.get("failures"), list):
+        raise InputError(f"report {str(path)!r}: no 'failures' list; expected the "
+                         f"failures.json of dsmpepc failures {str(folder)!r}")
+    return report
 
 
 def classes(report: dict | None, key: str, cases: set) -> dict | None:
@@ -124,6 +137,16 @@ def label(stem: str, meta: dict, runs: int) -> str:
     return f"ETH/UCY {meta.get('scene', stem)}, {runs}"
 
 
+def _check_fields(folder: Path, stem: str, rows: list) -> None:
+    """InputError unless every row of a navigation table has its case, variant and outcome."""
+    for row in rows:
+        for field in (case_key(stem), "variant", "outcome"):
+            if row.get(field) is None:
+                raise InputError(f"table {str(folder / (stem + '.json'))!r}: a row without "
+                                 f"{field} (its fields: {', '.join(row)}); expected the "
+                                 "table of dsmpepc benchmark barn, crowd or crowdnav")
+
+
 def navigation(found) -> list:
     """One entry per navigation benchmark: its label, each preset's figures, the pairing."""
     out = []
@@ -132,8 +155,10 @@ def navigation(found) -> list:
         stem, meta, _ = loaded["product"]
         if stem == "scenarios":
             continue
+        for preset in PRESETS:
+            _check_fields(folders[preset], loaded[preset][0], loaded[preset][2])
         rank = ORDER.index(stem) if stem in ORDER else len(ORDER)
-        csvs = [load(str(folders[p] / f"{loaded[p][0]}.csv"), VARIANT) for p in PRESETS]
+        csvs = [load(folders[p] / f"{loaded[p][0]}.csv", VARIANT) for p in PRESETS]
         cases = set(csvs[0]) & set(csvs[1])
         paired = compare(*csvs)
         entry = {"name": name, "presets": {}}
@@ -175,8 +200,8 @@ def _classes(counts) -> str:
     return ", ".join(f"{k} {v}" for k, v in counts.items()) or "none"
 
 
-def markdown(nav: list, scen: list) -> str:
-    """The two tables as markdown."""
+def _navigation_lines(nav: list) -> list:
+    """The first table: one line per benchmark and preset."""
     lines = ["| benchmark | preset | success | collision (at fault / struck) | timeout | "
              "deadlock | time to goal s | path m | plan ms median / p95 | failure classes | "
              "only this preset wins |",
@@ -194,6 +219,12 @@ def markdown(nav: list, scen: list) -> str:
                 f"{_num(s['plan_time_median'], 0, 1e3)} / {_num(s['plan_time_p95'], 0, 1e3)} | "
                 f"{_classes(s['classes'])} | {len(only)}"
                 + (f" (p = {entry['p']:.2g})" if preset == "paper" else "") + " |")
+    return lines
+
+
+def markdown(nav: list, scen: list) -> str:
+    """The two tables as markdown."""
+    lines = _navigation_lines(nav)
     bounds = [(entry["label"], preset, entry["presets"][preset]) for entry in nav
               for preset in PRESETS if entry["presets"][preset]["bound"]]
     if bounds:
@@ -229,20 +260,27 @@ def _run(row) -> str:
     return text
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("root", help="folder of <name>-product and <name>-paper --out folders")
-    parser.add_argument("--json", action="store_true", help="print one JSON object")
-    args = parser.parse_args(argv)
+def run(args) -> int:
+    """``dsmpepc table``: print the tables of ``args.root``."""
     found = pairs(args.root)
     nav, scen = navigation(found), scenarios(found)
     if args.json:
-        json.dump({"navigation": nav, "scenarios": scen}, sys.stdout, default=str)
-        print()
+        print(json.dumps(json_clean({"navigation": nav, "scenarios": scen}), allow_nan=False,
+                         default=str))
     else:
         print(markdown(nav, scen))
     return 0
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+def register(sub) -> None:
+    """Add ``table`` to the subparsers ``sub``."""
+    p = sub.add_parser("table", help="the published tables: the product's defaults and the "
+                       "paper preset side by side, from their benchmark folders",
+                       description="Print the markdown tables of docs/results.md from a folder "
+                       "of <name>-product and <name>-paper benchmark --out folders: each "
+                       "preset's rates, times, plan times, failure classes and the cases only "
+                       "it wins, with the sign test.")
+    p.add_argument("root", metavar="ROOT",
+                   help="folder of <name>-product and <name>-paper --out folders")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run)

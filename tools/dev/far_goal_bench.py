@@ -7,8 +7,8 @@ and reports medians, ratios and the traced memory peak of a plan.
 
 Run from the repository root::
 
-    python tools/far_goal_bench.py              # 7 repetitions
-    python tools/far_goal_bench.py --reps 15
+    python tools/dev/far_goal_bench.py              # 7 repetitions
+    python tools/dev/far_goal_bench.py --reps 15
 """
 
 from __future__ import annotations

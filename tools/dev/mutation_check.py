@@ -9,8 +9,8 @@ tests run against the copy; a mutant is *killed* when they fail (or time out).
 
 Run from the repository root::
 
-    python tools/mutation_check.py                      # 60 mutants, seed 0
-    python tools/mutation_check.py --count 200 --seed 1 --json out/mutation.json
+    python tools/dev/mutation_check.py                      # 60 mutants, seed 0
+    python tools/dev/mutation_check.py --count 200 --seed 1 --json out/mutation.json
 
 Survivors are listed with their line and the mutated source: each is either a missing test or
 an equivalent mutant (a change that cannot alter any result, e.g. in a guard that only keeps a
@@ -31,7 +31,7 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]     # the checkout: this file is tools/dev/
 TARGETS = ("dsmpepc_nlp/core/costs.py", "dsmpepc_nlp/core/exact_cost.py",
            "dsmpepc_nlp/core/control_law.py")
 TESTS = ("tests/test_costs.py", "tests/test_control_law.py", "tests/test_cost_terms.py",

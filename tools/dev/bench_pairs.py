@@ -8,9 +8,9 @@ pairs, and read as the median of the pairs' ratios. This script does that: it ch
 worktree or at this checkout, once each as a warm-up (it compiles what the base's cache lacks;
 not counted), then ``--pairs`` times each::
 
-    python tools/bench_pairs.py 932845c --pairs 16
-    python tools/bench_pairs.py 932845c --pairs 4 --out /tmp/pairs --json
-    python tools/bench_pairs.py HEAD --pairs 4     # the same code both sides: the noise floor
+    python tools/dev/bench_pairs.py 932845c --pairs 16
+    python tools/dev/bench_pairs.py 932845c --pairs 4 --out /tmp/pairs --json
+    python tools/dev/bench_pairs.py HEAD --pairs 4     # the same code both sides: the noise floor
 
 Each run's JSON is kept in ``--out`` (``base-K.json``, ``this-K.json``) and the summary printed:
 for each figure (default, fast and sampler medians, default p95, the exact cost a trajectory,
@@ -27,7 +27,7 @@ planners, and reports IPOPT's own wall time an iteration (the solves' ``t_wall_t
 their iterations, summed over the cycles; the median of the three planners) and the
 iterations a solve::
 
-    python tools/bench_pairs.py 932845c --pairs 6 --iterations
+    python tools/dev/bench_pairs.py 932845c --pairs 6 --iterations
 
 ``--fresh`` times a fresh process's first plan instead: each run is a new interpreter running
 :data:`FRESH_PROGRAM` (again only what every revision since the issue's has), which times the
@@ -37,7 +37,7 @@ child's whole wall time, interpreter start and exit included. The warm-up run of
 writes its bytecode, so the timed runs read modules from bytecode, as ``pip install .`` leaves
 them (unless ``PYTHONDONTWRITEBYTECODE`` is set)::
 
-    python tools/bench_pairs.py f0ebd4c --pairs 20 --fresh
+    python tools/dev/bench_pairs.py f0ebd4c --pairs 20 --fresh
 """
 
 from __future__ import annotations
@@ -53,7 +53,7 @@ import tempfile
 import time
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]     # the checkout: this file is tools/dev/
 
 FIGURES = {
     "default median, ms": ("default", "median_ms"),

@@ -11,8 +11,8 @@ back-up rung's 96 dodges and 3 reverses. A plan is doomed below ``--below``
 a plan doomed by the horizon's end, after one doomed within the second, and after a plan the
 last resort made (status ``clearing``: it acted, and the robot was struck all the same)::
 
-    python tools/doomed_cycles.py OUT
-    python tools/doomed_cycles.py OUT --before 1.25 --below 0.05 --json
+    python tools/dev/doomed_cycles.py OUT
+    python tools/dev/doomed_cycles.py OUT --before 1.25 --below 0.05 --json
 
 The configuration is the one each episode logged; a field it does not name takes today's
 default, so a run made before the last resort (``stall.doomed_below``) replays its own plans

@@ -9,8 +9,8 @@ changed number compiles nothing. Prints one line per call and the summary.
 
 Run from the repository root::
 
-    python tools/random_configs.py --calls 40 --seed 0
-    python tools/random_configs.py --calls 40 --seed 0 --json out/random_configs.json
+    python tools/dev/random_configs.py --calls 40 --seed 0
+    python tools/dev/random_configs.py --calls 40 --seed 0 --json out/random_configs.json
 """
 
 from __future__ import annotations

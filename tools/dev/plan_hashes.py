@@ -4,8 +4,8 @@ For both presets, both variants and the three solvers, a planner plans the first
 cycles of ``dsmpepc bench``'s demo scene (docking off); every plan's ``x`` and ``fun`` go into
 one hash per configuration. Run it from each checkout and diff the output::
 
-    python tools/plan_hashes.py > new.txt
-    PYTHONPATH=/path/to/other/checkout python tools/plan_hashes.py > old.txt
+    python tools/dev/plan_hashes.py > new.txt
+    PYTHONPATH=/path/to/other/checkout python tools/dev/plan_hashes.py > old.txt
     diff old.txt new.txt
 """
 

@@ -7,7 +7,7 @@ state at which the robot's two paths differ, and the message of the plan each ru
 before it: the decision the two configurations took differently. This is how docs/results.md
 traced univ's changed episodes to the plans that changed them::
 
-    python tools/where_runs_part.py --data DIR --scene univ --episodes 9 16 46 44 \\
+    python tools/dev/where_runs_part.py --data DIR --scene univ --episodes 9 16 46 44 \\
         --a docking.region_points=0
 
 ``--json`` prints one object per episode instead.

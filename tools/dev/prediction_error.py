@@ -7,7 +7,7 @@ the difference to the annotated position then. Printed per look-ahead: the RMS e
 (m) and that over ``tau`` (m/s), the slope a bell widening with the look-ahead would take
 (``cost.sigma_dynamic_growth``, docs/method.md section 3.2)::
 
-    python tools/prediction_error.py --data DIR eth hotel
+    python tools/dev/prediction_error.py --data DIR eth hotel
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@ revision, counted by valgrind's callgrind: repeatable where wall time on a share
 
 Wall time a plan moves by 0.3 between runs of the same two commits on this machine
 (docs/results.md), so a 5 % change in what one IPOPT iteration computes cannot be read from
-``tools/bench_pairs.py``. Callgrind counts the instructions executed instead, the same count
+``tools/dev/bench_pairs.py``. Callgrind counts the instructions executed instead, the same count
 for the same binary and inputs whatever else the machine runs. This script checks ``BASE`` out
 into a temporary git worktree, then for each side (``PYTHONPATH`` the worktree or this
 checkout, run from a folder outside both) runs :data:`PROGRAM` once plainly (it compiles what
@@ -12,9 +12,9 @@ the compiled objective and gradient that IPOPT calls (``F_of_z``/``G_of_z``; ``F
 revisions before the compile-per-structure change). The program plans the last of the demo's
 first ``--cycles`` cycles (docking off) with a default planner: the solves' calls are counted::
 
-    python tools/call_instructions.py 932845c
-    python tools/call_instructions.py HEAD        # the same code both sides: 1.000
-    python tools/call_instructions.py 932845c --out /tmp/ci
+    python tools/dev/call_instructions.py 932845c
+    python tools/dev/call_instructions.py HEAD        # the same code both sides: 1.000
+    python tools/dev/call_instructions.py 932845c --out /tmp/ci
     callgrind_annotate /tmp/ci/base.callgrind; callgrind_annotate /tmp/ci/this.callgrind
 
 With ``--out`` the two callgrind files are kept, so that ``callgrind_annotate`` can say where
@@ -41,7 +41,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]     # the checkout: this file is tools/dev/
 
 FUNCTIONS = {"F": ("F_of_z", "Fb"), "G": ("G_of_z", "Gb")}
 """The compiled functions counted: the cost alone and with its gradient, by the names of this

@@ -3,12 +3,15 @@
 
 Walks ``--goals`` goals 3 cm a step across a built-in scenario's map (the way a followed person
 moves the goal of the hall's follower), builds the navigation function of each both ways,
-alternated, and prints the medians, the parts of a build from nothing (the window's free cells,
-their graph, the rest: the Dijkstra and what depends on the goal) and whether the values agree
-to the bit::
+alternated, through the public ``World.navigation`` (a plan's own call, with its window
+margin), and prints the medians and whether the values agree to the bit::
 
-    python tools/nav_rebuild.py                 # the hall's map, 40 goals
-    python tools/nav_rebuild.py --scenario l-corridor --goals 80
+    python tools/dev/nav_rebuild.py                 # the hall's map, 40 goals
+    python tools/dev/nav_rebuild.py --scenario l-corridor --goals 80
+
+It once also split a build from nothing into its parts (the window's free cells, their graph,
+the rest: docs/experiments/2026-11-28-a-followers-plan-time.md) by calling private functions of
+the navigation module; it uses the package's public names only now, so it prints no parts.
 """
 
 from __future__ import annotations
@@ -18,10 +21,8 @@ import time
 
 import numpy as np
 
-from dsmpepc_nlp.core import navigation
 from dsmpepc_nlp.core.grid import OccupancyGrid
-from dsmpepc_nlp.core.navigation import NavigationFunction
-from dsmpepc_nlp.core.world import _NAV_MARGIN as MARGIN
+from dsmpepc_nlp.core.world import World
 from dsmpepc_nlp.sim.scenario import load_scenario
 
 
@@ -40,36 +41,24 @@ def main(argv=None) -> int:
     goals = [start + 0.03 * k * np.array([1.0, 0.3]) for k in range(args.goals)]
 
     def fresh():
-        return OccupancyGrid(grid.occupied, grid.resolution, grid.origin)
+        return World(OccupancyGrid(grid.occupied, grid.resolution, grid.origin))
 
-    NavigationFunction(goals[0], grid, args.radius, MARGIN)   # kept, as after a first cycle
+    World(grid).navigation(goals[0], args.radius)    # the map's window kept, as after a cycle
     kept_s, fresh_s, same = [], [], True
     for goal in goals:
+        world = World(grid)                          # a new world: no navigation function cached
         started = time.perf_counter()
-        kept = NavigationFunction(goal, grid, args.radius, MARGIN).values
+        kept = world.navigation(goal, args.radius).values
         kept_s.append(time.perf_counter() - started)
         other = fresh()
         started = time.perf_counter()
-        cold = NavigationFunction(goal, other, args.radius, MARGIN).values
+        cold = other.navigation(goal, args.radius).values
         fresh_s.append(time.perf_counter() - started)
         same &= bool(np.array_equal(kept, cold))
 
-    window = navigation.navigation_window(grid, goals[0], MARGIN)
-    parts = {"free cells": [], "their graph": []}
-    for _ in range(5):
-        other = fresh()
-        started = time.perf_counter()
-        free = navigation._free_cells(other, window, args.radius)
-        parts["free cells"].append(time.perf_counter() - started)
-        started = time.perf_counter()
-        navigation._cell_graph(free, other.resolution)
-        parts["their graph"].append(time.perf_counter() - started)
-    ms = {name: 1e3 * float(np.median(t)) for name, t in parts.items()}
     cold_ms, kept_ms = 1e3 * float(np.median(fresh_s)), 1e3 * float(np.median(kept_s))
     print(f"{args.scenario}, {args.goals} goals: a build with the window kept {kept_ms:.1f} ms, "
           f"from nothing {cold_ms:.1f} ms ({cold_ms / kept_ms:.2f}x); values the same: {same}")
-    print(f"from nothing: free cells {ms['free cells']:.1f} ms, their graph "
-          f"{ms['their graph']:.1f} ms, the rest {cold_ms - sum(ms.values()):.1f} ms")
     return 0 if same else 1
 
 
