@@ -14,6 +14,7 @@ To add a command: a parser in :func:`build_parser` (or a ``register`` of its own
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import sys
@@ -65,10 +66,11 @@ def _sample_cycles(scenario, config, count):
 
 def run_one(scenario, variant: str, solver_name: str, seed: int, out: Path, *,
             animate: bool = False, sample_cycles: int = DEFAULT_SAMPLE_CYCLES,
-            figure: bool = True, preset: str = "product", sensing: str = "oracle") -> dict:
+            figure: bool = True, preset: str = "product", sensing: str = "oracle",
+            time_budget="auto") -> dict:
     """Simulate one scenario with one variant; write the episode and figures; return a summary."""
     config = preset_config(preset, variant)
-    solver = commands.solver_config(solver_name)
+    solver = dataclasses.replace(commands.solver_config(solver_name), time_budget=time_budget)
     profile = load_profile(sensing)
     progress = EpisodeProgress(f"{scenario.name} {variant} {solver_name}")
     started = time.perf_counter()
@@ -142,7 +144,7 @@ def cmd_run(args) -> int:
     scenario = load_scenario(args.scenario)
     summary = run_one(scenario, args.variant, args.solver, args.seed, Path(args.out),
                       animate=args.animate, sample_cycles=args.samples, preset=args.preset,
-                      sensing=args.sensing)
+                      sensing=args.sensing, time_budget=args.time_budget)
     if args.panels is not None:
         summary["files"]["panels"] = str(_cost_panels(summary["_episode"], args.panels,
                                                       Path(args.out)))
@@ -178,7 +180,8 @@ def cmd_compare(args) -> int:
         raise UsageError(f"--variants: {' '.join(variants)} repeats a variant")
     out = Path(args.out)
     results = {v: run_one(scenario, v, args.solver, args.seed, out, figure=False,
-                          sample_cycles=0, preset=args.preset, sensing=args.sensing)
+                          sample_cycles=0, preset=args.preset, sensing=args.sensing,
+                          time_budget=args.time_budget)
                for v in variants}
     sensed = "" if args.sensing == "oracle" else f"-{load_profile(args.sensing).name}"
     figure = out / (f"{scenario.name}-compare-{'-'.join(variants)}-{args.solver}{sensed}"
@@ -202,6 +205,10 @@ def _scenario_options(p, *, variant=True, sensing=True):
         p.add_argument("--sensing", default="oracle", metavar="NAME|FILE",
                        help="what the robot senses: oracle (the truth, default), lidar, "
                             "tracked, realistic, or a profile YAML (docs/sensing.md)")
+        p.add_argument("--time-budget", type=options.time_budget, default="auto",
+                       metavar="auto|none|SECONDS",
+                       help="each plan's time budget (default auto: 0.75 of the control "
+                            "period, 0.15 s; none: no deadline)")
     p.add_argument("scenario", help="built-in name (see 'list') or path of a YAML file")
     if variant:
         p.add_argument("--variant", choices=list(VARIANTS), default="ds-mpepc")

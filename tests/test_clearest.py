@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState, StallConfig
+from dsmpepc_nlp.core.control_law import stacked
 from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.exact_cost import evaluate, exact_geometry
 from dsmpepc_nlp.core.solver_config import SolverConfig
@@ -35,7 +36,7 @@ def doomed(below=0.05, within=1.0, **stall) -> PlannerConfig:
 def gap(trajectory, world, config, within=1.0) -> float:
     """The smallest footprint-to-person gap over the first ``within`` s, from the geometry."""
     steps = round(within / config.horizon.dt)
-    return float(exact_geometry(moves.stacked([trajectory]), world, GOAL,
+    return float(exact_geometry(stacked([trajectory]), world, GOAL,
                                 config).distance[0, :steps + 1].min())
 
 
@@ -65,7 +66,7 @@ def test_the_clearest_way_is_the_widest_gap_of_the_plan_the_dodges_and_the_rever
     cycle = Cycle.prepare(DRIVING, CROSSING, GOAL, config)
     plan = Planner(doomed(below=0.0, back_up=0.0), SOLVER).plan(DRIVING, CROSSING, GOAL)
     cleared = last_resort.clearest(plan, DRIVING, cycle)
-    ways = moves.stacked([plan.trajectory, moves.dodge_trajectories(DRIVING, config),
+    ways = stacked([plan.trajectory, moves.dodge_trajectories(DRIVING, config),
                           moves.back_up_trajectories(DRIVING, config)])
     gaps = passive.clearance(ways, cycle, 1.0)
     assert gaps.shape == (1 + 96 + 3,)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState, StallConfig
-from dsmpepc_nlp.core.control_law import Trajectory
+from dsmpepc_nlp.core.control_law import Trajectory, stacked
 from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.grid import OccupancyGrid
 from dsmpepc_nlp.core.solver_config import SolverConfig
@@ -43,7 +43,7 @@ def with_passive(on: bool) -> PlannerConfig:
 
 def ways(state, config) -> Trajectory:
     """The last resort's ways from ``state``: the dodges, the reverses and the stop."""
-    return moves.stacked([moves.dodge_trajectories(state, config),
+    return stacked([moves.dodge_trajectories(state, config),
                            moves.back_up_trajectories(state, config),
                            passive.stopping(state, config)])
 
@@ -60,7 +60,7 @@ def test_where_every_way_touches_someone_the_robot_drives_at_no_one():
         "it touches" in still.message
     assert "the clearest way over 1 s" in moving.message
     approach = passive.approach_at_contact(
-        moves.stacked([still.trajectory, moving.trajectory]), cycle, 1.0)
+        stacked([still.trajectory, moving.trajectory]), cycle, 1.0)
     assert approach[0] == pytest.approx(0.0, abs=passive.STILL)
     assert approach[1] > 0.2                    # the shallowest overlap drives on into them
     assert np.all(np.isfinite(still.trajectory.poses)) and np.isfinite(still.fun)
@@ -94,7 +94,7 @@ def test_approach_counts_the_speed_toward_whoever_is_touched_and_not_away():
     drive = moves.dodge_trajectories(DRIVING, config)
     straight = drive[[i for i in range(len(drive)) if np.all(drive.omega[i] == 0.0)
                       and drive.v[i, -1] == config.robot.v_limit][0]]
-    both = moves.stacked([passive.stopping(DRIVING, config), straight])
+    both = stacked([passive.stopping(DRIVING, config), straight])
     approach = passive.approach_at_contact(both, Cycle.prepare(DRIVING, ahead, GOAL, config),
                                            1.0)
     assert approach[0] == 0.0                                     # stops short of them
@@ -106,13 +106,13 @@ def test_approach_counts_the_speed_toward_whoever_is_touched_and_not_away():
     away = ahead_of_them[[i for i in range(len(ahead_of_them))
                           if np.all(ahead_of_them.omega[i] == 0.0)][0]]
     cycle = Cycle.prepare(standing, behind, GOAL, config)
-    toward, fleeing = passive.approach_at_contact(moves.stacked([back, away]), cycle, 1.0)
+    toward, fleeing = passive.approach_at_contact(stacked([back, away]), cycle, 1.0)
     assert toward > 0.2 and fleeing == 0.0
-    assert passive.clearance(moves.stacked([away]), cycle, 1.0)[0] < 0.0   # touched, all same
+    assert passive.clearance(stacked([away]), cycle, 1.0)[0] < 0.0   # touched, all same
     occupied = np.zeros((40, 40), bool)
     occupied[27:, :] = True                                       # a wall from y = 0.7 m
     wall = World(OccupancyGrid.from_array(occupied, 0.1, (-2.0, -2.0)))
-    hit = passive.approach_at_contact(moves.stacked([straight]),
+    hit = passive.approach_at_contact(stacked([straight]),
                                       Cycle.prepare(DRIVING, wall, GOAL, config), 1.0)
     assert hit[0] == pytest.approx(np.abs(straight.v[:5]).max())
     nobody = passive.approach_at_contact(both, Cycle.prepare(DRIVING, World(), GOAL, config),
@@ -140,7 +140,7 @@ def test_a_turn_in_place_swings_a_circle_off_the_centre_into_whoever_it_touches(
     offset = config.robot.footprint[-1][0]
     standing = RobotState(0.0, 0.0, 0.0, 0.0, 0.0)
     left, right = turn_in_place(standing, config, 1.0), turn_in_place(standing, config, -1.0)
-    turns = moves.stacked([left, right])
+    turns = stacked([left, right])
     points = passive.footprint_points(turns.poses, config.robot.footprint)
     arriving, leaving = passive.circle_velocities(turns, points)
     omega = turns.omega[0, 1]
@@ -160,7 +160,7 @@ def test_a_turn_in_place_swings_a_circle_off_the_centre_into_whoever_it_touches(
                                       1.0)
     assert hit[0] > 0.1
     one = with_passive(True)
-    spin = moves.stacked([turn_in_place(standing, one, 1.0)])
+    spin = stacked([turn_in_place(standing, one, 1.0)])
     near = World(obstacles=[DynamicObstacle.pedestrian((0.0, 0.55), (0.0, 0.0), 0.3)])
     assert passive.approach_at_contact(spin, Cycle.prepare(standing, near, GOAL, one),
                                        1.0)[0] == 0.0

@@ -14,6 +14,7 @@ from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import OccupancyGrid, World
 from dsmpepc_nlp.solve import planner as planner_module
+from dsmpepc_nlp.solve import start_state
 from dsmpepc_nlp.solve.exact.cycle import Cycle
 from dsmpepc_nlp.solve.optimize.sampling import SamplingPlanner
 from dsmpepc_nlp.solve.planner import Planner
@@ -47,7 +48,7 @@ def world():
 
 
 class FailingNlp:
-    def solve(self, cycle, starts):
+    def solve(self, cycle, starts, deadline=None):
         raise MemoryError("injected")
 
 
@@ -87,7 +88,7 @@ def test_the_nlp_raising_falls_back_to_sampling():
 
 def test_even_the_stop_rollout_failing_leaves_a_finite_plan(monkeypatch):
     monkeypatch.setattr(Cycle, "prepare", boom)
-    monkeypatch.setattr(planner_module, "rollout", boom)
+    monkeypatch.setattr(start_state, "rollout", boom)
     plan = Planner(solver=SAMPLING).plan(RobotState(0.3, 1.5, 0.0), world(), (2.5, 1.5))
     assert_finite(plan)
     assert plan.status == "stopped" and plan.control == (0.0, 0.0)
@@ -104,6 +105,6 @@ def test_a_robot_far_from_the_map_gets_a_plan(state):
 
 
 def test_the_rollout_module_is_the_one_patched():
-    # the stop trajectory's rollout is looked up in the planner module (what the test above
-    # patches), not captured elsewhere
-    assert planner_module.rollout is control_law.rollout
+    # the stop trajectory's rollout is looked up in the start_state module (what the test
+    # above patches), not captured elsewhere
+    assert start_state.rollout is control_law.rollout

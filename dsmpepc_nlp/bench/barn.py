@@ -38,7 +38,7 @@ from ..sim.metrics import episode_metrics
 from ..sim.simulate import simulate
 from ..sim.types import Agent, FixedGoal, Scenario
 from ..viz import figures
-from .params import config_meta, named_solver, planner_config, robot_with
+from .params import config_meta, planner_config, robot_with, solver_of
 from .results import ResultTable, keep_failure
 from .runner import mean, outcome_rates, plan_time_summary, run_all
 
@@ -270,12 +270,14 @@ class BarnSettings:
     sensing: str = "oracle"
     """What the robot senses (``--sensing``): a built-in profile or a profile file
     (:mod:`dsmpepc_nlp.sim.sensing`); ``oracle``, the truth, by default."""
+    time_budget: float | str | None = "auto"
+    """Each plan's time budget (``--time-budget``; ``SolverConfig.time_budget``)."""
 
     def meta(self) -> dict:
         return {"benchmark": "barn", "variant": self.variant, "solver": self.solver,
                 "v_limit": self.v_limit, "resolution": self.resolution,
                 "time_limit": self.time_limit, "n_samples": self.n_samples,
-                **config_meta(self.preset, self.overrides, self.sensing)}
+                **config_meta(self.preset, self.overrides, self.sensing, self.time_budget)}
 
     def config(self) -> PlannerConfig:
         """The variant under the preset with the Jackal body and the overrides."""
@@ -293,7 +295,7 @@ def run_world(index: int, settings: BarnSettings, out_dir=None) -> dict:
         config = settings.config()
         robot = config.robot
         episode = simulate(scenario(world, robot, settings.time_limit), config,
-                           named_solver(settings.solver, settings.n_samples),
+                           solver_of(settings),
                            np.random.default_rng(index), record_trajectories=False,
                            sensing=settings.sensing)
         m = episode_metrics(episode)[0]
@@ -306,7 +308,8 @@ def run_world(index: int, settings: BarnSettings, out_dir=None) -> dict:
             min_static_clearance=m["min_static_clearance"],
             plan_time_median=m["plan_time_median"], plan_time_p95=m["plan_time_p95"],
             plan_time_p99=m["plan_time_p99"], plan_time_max=m["plan_time_max"],
-            fallback_plans=m["fallback_plans"], cycles=m["cycles"],
+            plans_out_of_time=m["plans_out_of_time"], fallback_plans=m["fallback_plans"],
+            cycles=m["cycles"],
             episode_file=keep_failure(episode, out_dir, f"barn-{index}-{settings.variant}-"
                                                         f"{settings.solver}"))
         metrics = world.metrics

@@ -95,7 +95,8 @@ def crowd_fields(m: dict) -> dict:
                 path_length=m["path_length"], spl=m["spl"], discomfort=m["discomfort"],
                 min_distance=m["min_dynamic_clearance"], jerk=m["mean_linear_jerk"],
                 plan_time_median=m["plan_time_median"], plan_time_p95=m["plan_time_p95"],
-                plan_time_p99=m["plan_time_p99"], plan_time_max=m["plan_time_max"])
+                plan_time_p99=m["plan_time_p99"], plan_time_max=m["plan_time_max"],
+                plans_out_of_time=m["plans_out_of_time"])
 
 
 def summarise(rows) -> dict:

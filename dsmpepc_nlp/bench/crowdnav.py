@@ -32,14 +32,13 @@ Outcomes as CrowdNav decides them: a collision is any overlap with a human withi
 robot within its radius of the goal; CrowdNav's ``time_limit = 25`` ends an episode as a timeout
 once ``global_time >= time_limit - 1``, so the last state that can succeed is at 24 s
 (``DURATION``); there is no deadlock rule (a robot that stalls runs on to the time limit).
-Humans that reach their goal stay there as ORCA agents (preferred velocity toward the goal),
-still stepping aside for the other humans, never for an invisible robot.
+Humans that reach their goal stay there as ORCA agents (preferred velocity toward the goal), still
+stepping aside for the other humans, never for an invisible robot.
 
 Differences from CrowdNav, stated rather than hidden: the robot is our unicycle with its
 limits (radius 0.3 m, as CrowdNav's robot), not CrowdNav's holonomic or unicycle action set;
 CrowdNav's collision check uses each human's velocity of the previous step, ours the human's
-actual motion over the step.
-"""
+actual motion over the step."""
 
 from __future__ import annotations
 
@@ -62,7 +61,7 @@ from ..solve.planner import Planner
 from .crowd_rows import measured_row, run_variants
 from .cv import CROWD_BASELINES, ConstantVelocityPlanner
 from .orca import OrcaPlanner, check_variants, require_pyrvo
-from .params import config_meta, named_solver, planner_config, robot_with
+from .params import config_meta, planner_config, robot_with, solver_of
 from .results import ResultTable
 
 SCENES = ("circle", "square")
@@ -291,6 +290,7 @@ class CrowdNavSettings:
     """``(name, value)`` pairs replacing fields of the preset (``--set``)."""
     sensing: str = "oracle"
     """``--sensing``: a profile's name or file (:mod:`dsmpepc_nlp.sim.sensing`)."""
+    time_budget: float | str | None = "auto"    # --time-budget: SolverConfig.time_budget
 
     def __post_init__(self):
         if self.scene not in SCENES:
@@ -302,7 +302,7 @@ class CrowdNavSettings:
         return {"benchmark": "crowdnav", "scene": self.scene, "setting": self.setting,
                 "humans": self.humans, "solver": self.solver, "n_samples": self.n_samples,
                 "duration": self.duration, "time_step": TIME_STEP,
-                **config_meta(self.preset, self.overrides, self.sensing)}
+                **config_meta(self.preset, self.overrides, self.sensing, self.time_budget)}
 
 
 def episode_scenario(settings: CrowdNavSettings, episode: int, seed: int, robot=None):
@@ -339,7 +339,7 @@ def simulate_episode(settings: CrowdNavSettings, variant: str, episode: int, see
         solver = SolverConfig.sampling(n_samples=1)
     else:
         config, make = planner_config(settings, variant), Planner
-        solver = named_solver(settings.solver, settings.n_samples)
+        solver = solver_of(settings)
 
     def factory(loop_config, solver_config):
         planning = dataclasses.replace(loop_config, horizon=config.horizon)

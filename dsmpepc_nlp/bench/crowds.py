@@ -39,7 +39,7 @@ from .crowd_rows import (
 )
 from .cv import CROWD_BASELINES, ConstantVelocityPlanner
 from .orca import check_variants, simulate_orca
-from .params import config_meta, named_solver, planner_config, robot_with
+from .params import config_meta, planner_config, robot_with, solver_of
 from .results import ResultTable
 
 FRAMES_PER_STEP = 10
@@ -308,12 +308,14 @@ class CrowdSettings:
     :func:`crossing_scenario`)."""
     sensing: str = "oracle"
     """``--sensing``: a profile's name or file (:mod:`dsmpepc_nlp.sim.sensing`)."""
+    time_budget: float | str | None = "auto"
+    """Each plan's time budget (``--time-budget``; ``SolverConfig.time_budget``)."""
 
     def meta(self) -> dict:
         meta = {"benchmark": "crowd", "scene": self.scene, "solver": self.solver,
                 "n_samples": self.n_samples, "duration": self.duration,
                 "v_limit": self.v_limit,
-                **config_meta(self.preset, self.overrides, self.sensing)}
+                **config_meta(self.preset, self.overrides, self.sensing, self.time_budget)}
         return dict(meta, goal_clear=True) if self.goal_clear else meta
 
 
@@ -343,7 +345,7 @@ def simulate_episode(settings: CrowdSettings, variant: str, episode: int, seed: 
         return simulate(scenario, PlannerConfig(), SolverConfig.sampling(n_samples=1), rng,
                         planner_factory=ConstantVelocityPlanner, **kwargs), draw
     return simulate(scenario, planner_config(settings, variant),
-                    named_solver(settings.solver, settings.n_samples), rng, **kwargs), draw
+                    solver_of(settings), rng, **kwargs), draw
 
 
 def run_episode(settings: CrowdSettings, variant: str, episode: int, seed: int,

@@ -141,6 +141,7 @@ class OrcaPlan:
     evaluated: object = None
     success: bool = True
     message: str = "ORCA"
+    cut: tuple = ()
 
 
 class OrcaPlanner:

@@ -66,11 +66,18 @@ def overrides(specs) -> tuple:
     return tuple((name, values[0]) for name, values in params.items())
 
 
-def named_solver(name: str, n_samples: int | None = None):
-    """``SolverConfig.named(name)`` with ``n_samples`` replaced when given: the solver every
-    benchmark's ``--solver`` and ``--samples`` name."""
-    solver = SolverConfig.named(name)
+def named_solver(name: str, n_samples: int | None = None, time_budget="auto"):
+    """``SolverConfig.named(name)`` with ``n_samples`` replaced when given and the plans'
+    ``time_budget``: the solver every benchmark's ``--solver``, ``--samples`` and
+    ``--time-budget`` name."""
+    solver = dataclasses.replace(SolverConfig.named(name), time_budget=time_budget)
     return dataclasses.replace(solver, n_samples=n_samples) if n_samples else solver
+
+
+def solver_of(settings):
+    """The solver a benchmark's ``settings`` name (their ``solver``, ``n_samples`` and
+    ``time_budget``: :func:`named_solver`)."""
+    return named_solver(settings.solver, settings.n_samples, settings.time_budget)
 
 
 def robot_with(robot, pairs: tuple):
@@ -82,11 +89,14 @@ def robot_with(robot, pairs: tuple):
     return dataclasses.replace(robot, **fields) if fields else robot
 
 
-def config_meta(preset: str, pairs: tuple, sensing: str = "oracle") -> dict:
-    """What a benchmark table stores of its configuration: the preset, the ``--set`` pairs and
-    the sensing profile (``--sensing``), each only when given (tables written before any
-    existed keep their meaning)."""
+def config_meta(preset: str, pairs: tuple, sensing: str = "oracle",
+                time_budget="auto") -> dict:
+    """What a benchmark table stores of its configuration: the preset, the ``--set`` pairs,
+    the sensing profile (``--sensing``) and the plans' time budget (``--time-budget``), each
+    only when given (tables written before any existed keep their meaning)."""
     meta = {} if preset == "product" else {"preset": preset}
+    if time_budget != "auto":
+        meta["time_budget"] = "none" if time_budget is None else float(time_budget)
     if pairs:
         meta["overrides"] = {k: v for k, v in pairs}
     if sensing != "oracle":

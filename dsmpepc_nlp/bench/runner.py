@@ -131,10 +131,26 @@ def plan_time_summary(rows) -> dict:
     """``plan_time_median``: the median over rows of each row's median plan time;
     ``plan_time_p95`` and ``plan_time_p99``: the 95th and 99th percentiles over rows of each
     row's own; ``plan_time_max``: the longest plan of all (s; NaN without plans, and for p99
-    and max with rows written before they were recorded). Rows are episodes, runs or worlds."""
+    and max with rows written before they were recorded); ``plans_out_of_time``: the plans
+    whose time budget ran out, summed. Rows are episodes, runs or worlds."""
     out = {}
     for key, q in (("plan_time_median", 50), ("plan_time_p95", 95), ("plan_time_p99", 99),
                    ("plan_time_max", 100)):
-        values = [r[key] for r in rows if r.get(key) is not None and not math.isnan(r[key])]
+        values = _known(rows, key)
         out[key] = float(np.percentile(values, q)) if values else math.nan
+    counts = _known(rows, "plans_out_of_time")
+    out["plans_out_of_time"] = float(np.sum(counts)) if counts else math.nan
     return out
+
+
+def _known(rows, key: str) -> list:
+    """``row[key]`` of the rows where it is a number (not missing, None or NaN)."""
+    values = []
+    for row in rows:
+        try:
+            value = float(row.get(key))
+        except (TypeError, ValueError):
+            continue
+        if not math.isnan(value):
+            values.append(value)
+    return values

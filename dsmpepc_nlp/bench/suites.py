@@ -65,6 +65,10 @@ def table_options(parser, out_default: str, solver_default: str = "nlp",
     parser.add_argument("--samples", type=options.positive, default=None,
                         help="samples per plan of the sampling solver, >= 1 "
                              "(default: SolverConfig's)")
+    parser.add_argument("--time-budget", type=options.time_budget, default="auto",
+                        metavar="auto|none|SECONDS",
+                        help="each plan's time budget (default auto: 0.75 of the control "
+                             "period, 0.15 s; none: no deadline)")
 
 
 def add_barn(p) -> None:
@@ -90,7 +94,8 @@ def run_barn(args) -> dict:
     settings = barn.BarnSettings(data=str(Path(args.data).resolve()), variant=args.variant,
                                  solver=args.solver, v_limit=args.v_limit,
                                  resolution=args.resolution, time_limit=args.time_limit,
-                                 n_samples=args.samples, overrides=overrides(args.set),
+                                 n_samples=args.samples, time_budget=args.time_budget,
+                                 overrides=overrides(args.set),
                                  preset=args.preset, sensing=sensing(args))
     _, summary = barn.run_benchmark(settings, worlds, args.out, workers=args.workers,
                                     scheduler=args.scheduler, resume=args.resume,
@@ -116,6 +121,7 @@ def add_crowd(p) -> None:
 def run_crowd(args) -> dict:
     settings = crowds.CrowdSettings(data=str(Path(args.data).resolve()), scene=args.scene,
                                     solver=args.solver, n_samples=args.samples,
+                                    time_budget=args.time_budget,
                                     preset=args.preset, overrides=overrides(args.set),
                                     goal_clear=args.goal_clear, duration=args.duration,
                                     sensing=sensing(args))
@@ -149,6 +155,7 @@ def run_crowdnav(args) -> dict:
     settings = crowdnav.CrowdNavSettings(scene=args.scene, setting=args.robot,
                                          humans=args.humans, solver=args.solver,
                                          n_samples=args.samples, duration=args.duration,
+                                         time_budget=args.time_budget,
                                          preset=args.preset, overrides=overrides(args.set),
                                          sensing=sensing(args))
     if args.solver != "sampling":
@@ -176,6 +183,7 @@ def add_scenarios(p) -> None:
 
 def run_scenarios(args) -> dict:
     settings = sweep.SweepSettings(solver=args.solver, n_samples=args.samples,
+                                   time_budget=args.time_budget,
                                    start_noise=args.start_noise, preset=args.preset,
                                    sensing=sensing(args))
     return sweep.run_scenarios(args.variants, [s for s in args.scenarios.split(",") if s],
@@ -194,6 +202,7 @@ def add_sweep(p) -> None:
 def run_sweep(args) -> dict:
     settings = sweep.SweepSettings(variant=args.variant, solver=args.solver,
                                    n_samples=args.samples, start_noise=args.start_noise,
+                                   time_budget=args.time_budget,
                                    preset=args.preset, sensing=sensing(args))
     return sweep.run_sweep(parse_params(args.param), [s for s in args.scenarios.split(",") if s],
                            parse_indices(args.seeds, "--seeds"), settings, args.out,

@@ -27,7 +27,7 @@ from ..sim.scenario import load_scenario
 from ..sim.simulate import simulate
 from ..viz import figures
 from .orca import check_variants, simulate_orca
-from .params import configure, named_solver
+from .params import configure, solver_of
 from .results import ResultTable, keep_failure
 from .runner import mean, outcome_rates, plan_time_summary, run_all
 
@@ -60,11 +60,15 @@ class SweepSettings:
     sensing: str = "oracle"
     """What the robot senses (``--sensing``): a built-in profile or a profile file
     (:mod:`dsmpepc_nlp.sim.sensing`); ``oracle``, the truth, by default."""
+    time_budget: float | str | None = "auto"
+    """Each plan's time budget (``--time-budget``; ``SolverConfig.time_budget``)."""
 
     def meta(self) -> dict:
         meta = {"benchmark": "sweep", "variant": self.variant, "solver": self.solver,
                 "n_samples": self.n_samples, "duration": self.duration,
                 "start_noise": self.start_noise, "preset": self.preset}
+        if self.time_budget != "auto":
+            meta["time_budget"] = "none" if self.time_budget is None else self.time_budget
         return meta if self.sensing == "oracle" else dict(meta, sensing=self.sensing)
 
 
@@ -90,7 +94,7 @@ def run_one(run: dict, settings: SweepSettings, out_dir=None) -> dict:
                                            duration=min(scenario.duration, settings.duration))
         if settings.start_noise is not None:
             scenario = dataclasses.replace(scenario, start_noise=settings.start_noise)
-        solver = named_solver(settings.solver, settings.n_samples)
+        solver = solver_of(settings)
         rng = np.random.default_rng(run["seed"])
         if variant == "orca":
             episode = simulate_orca(scenario, config, rng, record_trajectories=False,

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import casadi as ca
 import numpy as np
@@ -151,6 +151,15 @@ class Trajectory:
         """The trajectories at ``index`` of a batch."""
         return Trajectory(self.z[index], self.poses[index], self.v[index], self.omega[index],
                           self.target[index])
+
+
+def stacked(trajectories) -> Trajectory:
+    """One batch of ``trajectories`` (each a batch or a single trajectory), in order."""
+    rows = [t if t.z.ndim == 2 else Trajectory(*(getattr(t, f.name)[None]
+                                                for f in fields(Trajectory)))
+            for t in trajectories]
+    return Trajectory(*(np.concatenate([getattr(t, f.name) for t in rows])
+                        for f in fields(Trajectory)))
 
 
 def rollout(z, state: RobotState, config: PlannerConfig, smoothing=EXACT) -> Trajectory:

@@ -55,3 +55,19 @@ positive = integer(1)
 """A count of at least one (samples, workers, episodes, cycles)."""
 nonnegative = integer(0)
 """A count that may be zero."""
+
+
+def time_budget(text: str):
+    """An argparse ``type`` for a plan's time budget: ``auto``, ``none`` (no deadline) or
+    seconds > 0 (``SolverConfig.time_budget``)."""
+    if text.strip().lower() in ("auto", "none"):
+        return None if text.strip().lower() == "none" else "auto"
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not value > 0.0:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be auto, none or a number of "
+                                         "seconds > 0")
+    return value
+

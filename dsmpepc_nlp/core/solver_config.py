@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 
+from .deadline import AUTO, BUDGET_ALLOWED, is_budget
 from .errors import InputError
 from .validation import check_booleans, check_integers, fail, validate_fields
 
@@ -177,11 +178,18 @@ class SolverConfig:
     """Object counts the graph is compiled for at every pose; a cycle uses the smallest that
     holds the objects in its reach (the largest when none does). Each is compiled on first
     use and cached."""
+    time_budget: float | str | None = AUTO
+    """Seconds a plan may take (:class:`~dsmpepc_nlp.core.deadline.Deadline`): ``"auto"``
+    (default) is three quarters of the control period, at most 0.2 s (0.15 s at the 0.2 s
+    period); None plans without a deadline. When it runs out, the best exact-costed candidate
+    so far is the plan (status ``deadline``), and no later stage starts."""
 
     def __post_init__(self):
         if self.method not in SOLVER_METHODS:
             fail("SolverConfig", "method", self.method, f"one of {', '.join(SOLVER_METHODS)}")
         check_integers(self, {"n_samples": 1, "seed": 0})
+        if not is_budget(self.time_budget):
+            fail("SolverConfig", "time_budget", self.time_budget, BUDGET_ALLOWED)
         for name, kind in (("local", LocalSolverSettings), ("multistart", MultistartSettings),
                            ("polish", PolishSettings), ("parallel", ParallelSettings)):
             if not isinstance(getattr(self, name), kind):

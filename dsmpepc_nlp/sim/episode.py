@@ -30,7 +30,7 @@ _ARRAYS = (
     "times", "states", "active", "goals", "z", "cost_total", "cost_terms", "survivability",
     "ttg", "ttc_terminal", "status", "nit", "plan_time", "n_starts", "plan_poses",
     "ped_positions", "ped_velocities", "ped_radii", "grid_occupied", "grid_resolution",
-    "grid_origin", "believed_states", "believed_occupied",
+    "grid_origin", "believed_states", "believed_occupied", "out_of_time",
 )
 
 
@@ -62,6 +62,9 @@ class Episode:
         NLP iterations summed over starts and number of starts.
     plan_time : ndarray, (R, K)
         Wall time of ``Planner.plan``, s.
+    out_of_time : ndarray of bool, (R, K) or None
+        The plan's time budget ran out (``Plan.cut`` not empty); None in logs written before
+        it was recorded.
     plan_poses : ndarray, (R, K, N+1, 3) or None
         The chosen trajectory of each plan (when recorded).
     ped_positions, ped_velocities : ndarray, (K+1, P, 2)
@@ -115,6 +118,7 @@ class Episode:
     samples: dict = field(default_factory=dict)
     believed_states: np.ndarray | None = None
     believed_occupied: np.ndarray | None = None
+    out_of_time: np.ndarray | None = None
 
     term_names = TERM_NAMES
     statuses = STATUSES

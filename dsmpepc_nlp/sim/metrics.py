@@ -278,6 +278,14 @@ def plan_times(episode, robot: int) -> tuple:
             float(np.percentile(times, 99)), float(np.max(times)))
 
 
+def plans_out_of_time(episode, robot: int) -> float:
+    """How many of the robot's plans ran out of their time budget (NaN for a log written
+    before it was recorded)."""
+    if getattr(episode, "out_of_time", None) is None:
+        return math.nan
+    return float(np.sum(episode.out_of_time[robot][episode.active[robot]]))
+
+
 def robot_metrics(episode, robot: int) -> dict:
     """Every metric of one robot, as a flat JSON-able dict (NaN for "not applicable")."""
     alpha, jerk = smoothness(episode, robot)
@@ -303,6 +311,7 @@ def robot_metrics(episode, robot: int) -> dict:
         "plan_time_p95": p95,
         "plan_time_p99": p99,
         "plan_time_max": longest,
+        "plans_out_of_time": plans_out_of_time(episode, robot),
         "cycles": int(np.sum(episode.active[robot])),
         "nlp_plans": statuses.count("nlp"),
         "fallback_plans": statuses.count("sampling-fallback") + statuses.count("stopped"),

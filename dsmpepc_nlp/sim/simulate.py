@@ -68,6 +68,7 @@ class _Log:
                "nit": np.zeros((r, n_cycles), dtype=np.int32),
                "n_starts": np.zeros((r, n_cycles), dtype=np.int16),
                "plan_time": nan(), "active": np.zeros((r, n_cycles), dtype=bool),
+               "out_of_time": np.zeros((r, n_cycles), dtype=bool),
                "plan_poses": nan(self.n_steps + 1, 3) if record_trajectories else None}
         for k, plans in enumerate(self.rows):
             for i, plan in plans.items():
@@ -82,6 +83,7 @@ class _Log:
                 out["nit"][i, k] = plan.nit
                 out["n_starts"][i, k] = len(plan.starts)
                 out["plan_time"][i, k] = plan.wall_time
+                out["out_of_time"][i, k] = bool(plan.cut)
                 if record_trajectories:
                     out["plan_poses"][i, k] = plan.trajectory.poses
         return out

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..core.control_law import Trajectory
 from ..core.exact_cost import CostBreakdown
+from ..core.terms import TERM_NAMES
 from .exact.evaluator import Evaluation
 
 
@@ -35,22 +36,25 @@ class StartRecord:
     exact_cost: float = math.nan
 
 
-__all__ = ["StartRecord"]
+__all__ = ["STATUSES", "Plan", "StartRecord", "unmeasured"]
 
 
 STATUSES = ("nlp", "sampling", "sampling-fallback", "docked", "stopped", "start-in-collision",
-            "sampling-compiling", "backing-up", "dodging", "turning", "clearing")
+            "sampling-compiling", "backing-up", "dodging", "turning", "clearing", "deadline")
 """Where a plan came from: the NLP, the sampler as chosen solver, the sampler after every NLP
-start failed, docking at a fixed goal, the stop trajectory when nothing finite was found, any
-of these from a start whose footprint already overlaps the map or an obstacle
-(``start-in-collision``: the plan is still made, and the message names the overlap), or the
-sampler while the NLP's library for this cycle's structure compiles in the background
+start failed, docking at a fixed goal, the stop trajectory when nothing finite was found, the
+brake of a robot whose footprint already overlaps the map or an obstacle
+(``start-in-collision``: it brakes as hard as its limits allow and nothing else moves it; the
+message names the overlap), the sampler while the NLP's library for this cycle's structure
+compiles in the background
 (``sampling-compiling``), or the stall ladder's back-up rung (``backing-up``: a reverse
 trajectory the law cannot make, cheaper by the exact cost than standing) and its dodges
 (``dodging``: a hard turn, then ahead, against a plan that expects to be struck), its turn
 in place toward the goal of a stalled robot facing away from it (``turning``), and its last
 resort against a plan struck almost surely within the second, the way that keeps the widest
-gap (``clearing``). New statuses are appended, so stored indices keep their meaning."""
+gap (``clearing``), or the best exact-costed candidate when the plan's time budget ran out
+before the chosen solver finished (``deadline``). New statuses are appended, so stored indices
+keep their meaning."""
 
 
 @dataclass(frozen=True)
@@ -89,6 +93,9 @@ class Plan:
     stall_level : int
         The stall monitor's ladder level this plan was made at (0: not stalled; see
         :class:`~dsmpepc_nlp.core.config.StallConfig`).
+    cut : tuple of str
+        The stages the time budget cut short or skipped (empty: none; see
+        ``SolverConfig.time_budget``).
     """
 
     x: np.ndarray
@@ -105,6 +112,7 @@ class Plan:
     evaluated: Evaluation | None = field(default=None, repr=False)
     fallbacks_in_row: int = 0
     stall_level: int = 0
+    cut: tuple = ()
 
     @property
     def z(self) -> np.ndarray:
@@ -115,3 +123,12 @@ class Plan:
     def breakdown(self) -> dict:
         """Per-term exact cost, ``{name: float}``."""
         return {name: float(value) for name, value in self.cost.terms.items()}
+
+
+def unmeasured(trajectory: Trajectory) -> CostBreakdown:
+    """The breakdown of a plan whose cost could not be measured: total inf, terms 0,
+    survival 0 (a plan is never NaN)."""
+    inf = np.full(1, math.inf)
+    survival = np.zeros((1, trajectory.poses.shape[0]))
+    return CostBreakdown(inf, {name: np.zeros(1) for name in TERM_NAMES}, survival,
+                         np.full(1, -math.inf), inf, np.zeros(1))[0]

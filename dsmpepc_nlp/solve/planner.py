@@ -11,24 +11,30 @@ import warnings
 import numpy as np
 
 from ..core.config import PlannerConfig, RobotState
-from ..core.control_law import Trajectory, rollout
+from ..core.deadline import BUDGET_ALLOWED, Deadline, budget_seconds, is_budget
 from ..core.errors import InputError
-from ..core.exact_cost import CostBreakdown, evaluate
 from ..core.solver_config import SolverConfig
-from ..core.terms import TERM_NAMES
 from ..core.world import World
 from ..perception.standing import StandingPeople
+from . import start_state
 from .behaviours import backup, docking
 from .behaviours.stall import StallMonitor
-from .behaviours.ways import stacked
 from .exact import loader as exact
 from .exact.cycle import Cycle
 from .exact.evaluator import Evaluation, Evaluator
-from .optimize.multistart import NlpSolver
+from .optimize.multistart import SOLVES, NlpSolver
+from .optimize.sampling import STAGE as SAMPLER
 from .optimize.sampling import SamplingPlanner
-from .optimize.starts import stop_z, structured_starts
+from .optimize.starts import structured_starts
 from .plan import Plan
-from .start_state import as_state, bounded_control, braking, start_overlap
+from .start_state import as_state, as_tolerance, law_control, start_overlap
+
+CONFIGURED = object()
+"""``Planner.plan``'s ``time_budget`` when not given: ``SolverConfig.time_budget``."""
+
+TOOK_DECAY = 0.95
+"""How much of a stage's slowest recent run is still expected of it a plan later (:meth:`Planner.
+_timed`): a stage that took 50 ms is expected to take 25 ms fourteen quick runs later."""
 
 FALLBACK_STATUSES = ("sampling-fallback", "stopped")
 """Statuses of a plan the chosen solver did not deliver."""
@@ -97,6 +103,7 @@ class Planner:
         self.stall = StallMonitor(self.config)
         self.standing = StandingPeople(self.config)
         self.last_evaluator = None
+        self._took = {}
 
     def prepare(self, max_objects: int | None = None) -> dict:
         """Compile (or load) everything a plan may need, now: the NLP's problem of every object
@@ -134,7 +141,8 @@ class Planner:
         self.standing.reset()
 
     def plan(self, state: RobotState, world: World, goal, *, dock: bool = True,
-             sample: bool = False, goal_tolerance: float = 0.0) -> Plan:
+             sample: bool = False, goal_tolerance: float = 0.0,
+             time_budget=CONFIGURED) -> Plan:
         """Plan from ``state`` toward ``goal`` in ``world``.
 
         Parameters
@@ -155,6 +163,13 @@ class Planner:
             How near the goal counts as arrived, m (the task's; 0: the goal point). With
             ``docking.region_points``, docking may head for a point that near the goal when
             the way to the goal point itself is not safe enough (:func:`.docking.dock`).
+        time_budget : float, "auto" or None
+            This plan's time budget in seconds (:class:`~dsmpepc_nlp.core.deadline.Deadline`;
+            default ``SolverConfig.time_budget``): when it runs out, no further solve, polish
+            round, sampler chunk or recovery starts, and the best exact-costed candidate so
+            far is the plan (status ``deadline`` when it cut the chosen solver; ``Plan.cut``
+            names every stage it cut). ``sample=True``'s extra sampler run (a diagnostic)
+            is not bounded.
 
         Returns
         -------
@@ -166,8 +181,8 @@ class Planner:
         ------
         InputError
             Only for a ``goal`` that is not a finite (x, y) pair, a ``goal_tolerance`` that is
-            not a finite number >= 0, or a ``state`` that is neither a RobotState nor 3 or 5
-            finite numbers.
+            not a finite number >= 0, a ``time_budget`` that is not one, or a ``state`` that
+            is neither a RobotState nor 3 or 5 finite numbers.
 
         Warns
         -----
@@ -182,7 +197,11 @@ class Planner:
             raise InputError(f"goal = {goal!r}: must be a finite (x, y) pair") from None
         if goal.shape != (2,) or not np.all(np.isfinite(goal)):
             raise InputError(f"goal = {goal!r}: must be a finite (x, y) pair")
-        goal_tolerance = _tolerance(goal_tolerance)
+        goal_tolerance = as_tolerance(goal_tolerance)
+        budget = self.solver.time_budget if time_budget is CONFIGURED else time_budget
+        if not is_budget(budget):
+            raise InputError(f"time_budget = {budget!r}: must be {BUDGET_ALLOWED}")
+        deadline = Deadline(budget_seconds(budget, self.config.horizon.dt), started)
         with np.errstate(all="ignore"):     # a start at 1e300 m overflows; it is no overlap
             overlap = self._try([], "the overlap", start_overlap, state, world, self.config)
         if overlap:                         # Lemma 3: brake, and nothing else moves the robot
@@ -202,29 +221,32 @@ class Planner:
         self.last_evaluator = evaluator
         plan, evaluated, records = None, None, ()
         if dock and cycle is not None:
-            plan = self._try(trouble, "docking", self._dock, evaluator, goal_tolerance)
+            plan = self._timed(trouble, deadline, "docking", self._dock, evaluator,
+                               goal_tolerance)
         compiling = ""
         if plan is None and self.nlp is not None and cycle is not None \
                 and self.compile == "background":
             _, compiling = self._try(trouble, "the NLP's readiness", self.nlp.readiness,
                                     cycle) or (True, "")
         if plan is None and self.nlp is not None and cycle is not None and not compiling:
-            records = self._try(trouble, "the NLP", self._solve_nlp, evaluator, starts) or ()
-            plan = self._try(trouble, "the NLP's verdict", self._choose_nlp, records, evaluator)
+            records = self._try(trouble, "the NLP", self._solve_nlp, evaluator, starts,
+                                deadline) or ()
+            plan = self._try(trouble, "the NLP's verdict", self._choose_nlp, records, evaluator,
+                             deadline)
         if plan is None and cycle is not None:
             sampler = self.sampler if not compiling else self._quick_sampler()
             evaluated = evaluated or self._try(trouble, "the sampler", sampler.search,
-                                              evaluator, starts)
+                                              evaluator, starts, deadline)
             if evaluated is not None:
                 plan = self._try(trouble, "the sampled verdict", self._from_evaluation,
                                 evaluated, state, fallback=self.nlp is not None, records=records,
-                                compiling=compiling)
+                                compiling=compiling, cut=SAMPLER in deadline.cut)
         if plan is None:
             plan = self._stop(state, records)
         else:
             if cycle is not None and self.config.stall.levels:    # the ladder's back-up rung
-                plan = self._try(trouble, "the back-up", backup.consider, plan, state, cycle,
-                                 level, goal_tolerance) or plan
+                plan = self._timed(trouble, deadline, "the recovery", backup.consider, plan,
+                                   state, cycle, level, goal_tolerance) or plan
             if sample and evaluated is None and cycle is not None:    # docked or the NLP's
                 evaluated = self._try(trouble, "the sampler", self.sampler.search, evaluator,
                                       starts)
@@ -233,6 +255,10 @@ class Planner:
                             success=False)
         if level:
             plan = _replace(plan, message=f"{self.stall.describe(level)}; {plan.message}")
+        if deadline.cut:
+            plan = _replace(plan, cut=tuple(deadline.cut), message=(
+                f"time budget of {deadline.seconds * 1e3:.0f} ms spent, cut: "
+                f"{', '.join(deadline.cut)}; {plan.message}"))
         plan = _replace(plan, wall_time=time.perf_counter() - started, evaluated=evaluated,
                         fallbacks_in_row=self._count_fallback(plan), stall_level=level)
         self._previous_target = (plan.trajectory.target, float(plan.x[3]))
@@ -251,6 +277,18 @@ class Planner:
             trouble.append(f"{stage} raised {type(error).__name__}: {error}")
             return None
 
+    def _timed(self, trouble, deadline: Deadline, stage: str, function, *args):
+        """A stage that cannot stop once started (docking, the recovery): :meth:`_try` when
+        the time left covers what it took lately (its slowest run, decaying by
+        :data:`TOOK_DECAY` a plan), else skipped and recorded as cut."""
+        took = self._took.get(stage, 0.0)
+        if not deadline.check(stage, took):
+            return None
+        began = time.perf_counter()
+        result = self._try(trouble, stage, function, *args)
+        self._took[stage] = max(time.perf_counter() - began, TOOK_DECAY * took)
+        return result
+
     def _count_fallback(self, plan: Plan) -> int:
         self._fallbacks = self._fallbacks + 1 if plan.status in FALLBACK_STATUSES else 0
         if self._fallbacks >= FALLBACK_WARNING and not self._warned:
@@ -266,9 +304,9 @@ class Planner:
         return None if docked is None else self._plan_from(docked[0], 0, "docked", True,
                                                            docked[1], 0, ())
 
-    def _solve_nlp(self, evaluator: Evaluator, starts) -> tuple:
+    def _solve_nlp(self, evaluator: Evaluator, starts, deadline: Deadline) -> tuple:
         """Every NLP start's record with its exact cost."""
-        return self._verify(self.nlp.solve(evaluator, starts), evaluator)
+        return self._verify(self.nlp.solve(evaluator, starts, deadline), evaluator)
 
     def _verify(self, original, evaluator: Evaluator) -> tuple:
         """Exact cost of every start's result: the verdict on the NLP.
@@ -285,9 +323,12 @@ class Planner:
         return tuple(r if math.isfinite(r.exact_cost)
                      else _replace(r, exact_cost=costs.get(id(r), math.nan)) for r in original)
 
-    def _choose_nlp(self, records, evaluator: Evaluator) -> Plan | None:
+    def _choose_nlp(self, records, evaluator: Evaluator, deadline: Deadline) -> Plan | None:
+        """The best record by exact cost; with the solves cut by the deadline, whatever it
+        is (a screened start is a candidate like any other), status ``deadline``."""
         usable = [r for r in records if math.isfinite(r.exact_cost)]
-        if not any(r.success for r in usable):
+        cut = SOLVES in deadline.cut
+        if not usable or not (cut or any(r.success for r in usable)):
             return None
         best = min(usable, key=lambda r: r.exact_cost)
         ev = evaluator.evaluate(best.z)       # read back from the batch that costed it
@@ -295,10 +336,13 @@ class Planner:
         message = f"NLP: best of {len(records)} starts is '{best.name}' ({best.status})" + (
             "; no screen of the box, no polish: the compiled exact kernel is loading"
             if self.nlp.kernel_loading else "")
+        if cut:
+            return self._plan_from(ev, 0, "deadline", False, "the time budget cut the NLP's "
+                                   f"solves: {message[5:]}", nit, records)
         return self._plan_from(ev, 0, "nlp", True, message, nit, records)
 
     def _from_evaluation(self, evaluated: Evaluation, state, *, fallback: bool, records,
-                         compiling: str = "") -> Plan:
+                         compiling: str = "", cut: bool = False) -> Plan:
         index = evaluated.best()
         if index is None:
             return self._stop(state, records)
@@ -310,83 +354,30 @@ class Planner:
             return self._plan_from(evaluated, index, "sampling-fallback", False,
                                    "every NLP start failed; best sampled trajectory used",
                                    sum(r.nit for r in records), records)
+        if cut:
+            return self._plan_from(evaluated, index, "deadline", False, "the time budget "
+                                   f"cut the sampler: best of the {len(evaluated.z)} sampled "
+                                   "trajectories costed", 0, ())
         return self._plan_from(evaluated, index, "sampling", True,
                                f"best of {len(evaluated.z)} sampled trajectories", 0, ())
 
     def _in_collision(self, state, world, goal, overlap: str, started: float) -> Plan:
-        """The plan of a robot whose footprint already overlaps the map or an object: the
-        braking trajectory (:func:`.start_state.braking`), whatever the preset, the solver or
-        the stall ladder would do (the paper's Lemma 3: in a collision state the robot does
-        not move). Its exact cost, or inf when even that cannot be measured."""
-        trajectory = braking(state, self.config)
-        try:
-            cost = evaluate(stacked([trajectory]), world, goal, self.config)[0]
-            fun = float(cost.total) if math.isfinite(float(cost.total)) else math.inf
-        except Exception:  # noqa: BLE001 - a robot in collision must still get its brake
-            cost, fun = _unmeasured(trajectory), math.inf
-        v, omega = float(trajectory.v[0]), float(trajectory.omega[0])
-        message = (f"{overlap}; braking as hard as the limits allow and moving no other way "
-                   f"(Lemma 3): v {state.v:.2f} -> {v:.2f} m/s, omega {state.omega:.2f} -> "
-                   f"{omega:.2f} rad/s")
-        plan = Plan(trajectory.z, fun, False, message, 0, trajectory,
-                    bounded_control(v, omega, self.config.robot), cost, "start-in-collision", ())
+        """The brake of a robot whose footprint already overlaps the map or an object
+        (:func:`.start_state.braking_plan`: Lemma 3, whatever the preset, solver or ladder)."""
+        plan = start_state.braking_plan(state, world, goal, overlap, self.config)
         self._previous_target = None
         return _replace(plan, wall_time=time.perf_counter() - started,
                         fallbacks_in_row=self._count_fallback(plan))
 
     def _stop(self, state, records) -> Plan:
-        """Nothing finite: the stop trajectory (v_max = 0), finite by construction.
-
-        Its cost is reported as ``inf``: nothing could be measured, and a plan is never NaN.
-        Should even the rollout fail, the robot holds its pose over the horizon.
-        """
-        z = stop_z(self.config)
-        n_steps = self.config.horizon.n_steps
-        try:
-            trajectory = rollout(z, state, self.config)
-        except Exception:  # noqa: BLE001 - the last resort must not raise
-            pose = np.array(state.pose, dtype=float)
-            trajectory = Trajectory(z, np.tile(pose, (n_steps + 1, 1)), np.zeros(n_steps),
-                                    np.zeros(n_steps), pose)
-        cost = _unmeasured(trajectory)
-        message = ("stopped: no start, solve or sample had a finite cost (or every stage "
-                   "failed), so the robot brakes to a stop (v_max = 0); cost reported as inf")
-        return Plan(z, math.inf, False, message, 0, trajectory,
-                    _control(trajectory, self.config), cost, "stopped", tuple(records))
+        return start_state.stop_plan(state, records, self.config)
 
     def _plan_from(self, ev: Evaluation, index, status, success, message, nit, records) -> Plan:
         trajectory = ev.trajectories[index]
         return Plan(ev.z[index], float(ev.costs.total[index]), success, message, nit,
-                    trajectory, _control(trajectory, self.config), ev.costs[index], status,
+                    trajectory, law_control(trajectory, self.config), ev.costs[index], status,
                     tuple(records))
-
-
-def _control(trajectory: Trajectory, config: PlannerConfig) -> tuple:
-    """First command of a law's trajectory, forced finite and inside the limits (the law
-    never reverses)."""
-    v, omega = bounded_control(trajectory.v[0], trajectory.omega[0], config.robot)
-    return (max(v, 0.0), omega)
-
-
-def _unmeasured(trajectory: Trajectory) -> CostBreakdown:
-    """The breakdown of a plan whose cost could not be measured: total inf, terms 0,
-    survival 0 (a plan is never NaN)."""
-    inf = np.full(1, math.inf)
-    survival = np.zeros((1, trajectory.poses.shape[0]))
-    return CostBreakdown(inf, {name: np.zeros(1) for name in TERM_NAMES}, survival,
-                         np.full(1, -math.inf), inf, np.zeros(1))[0]
 
 
 def _replace(obj, **changes):
     return dataclasses.replace(obj, **changes)
-
-
-def _tolerance(value) -> float:
-    """``plan``'s ``goal_tolerance`` as a float, or an InputError naming what is allowed."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        number = math.nan
-    if isinstance(value, bool) or not (math.isfinite(number) and number >= 0.0):
-        raise InputError(f"goal_tolerance = {value!r}: must be a finite number of metres >= 0")
-    return number

@@ -9,10 +9,12 @@ import math
 import numpy as np
 
 from ..core.config import PlannerConfig, RobotConfig, RobotState
-from ..core.control_law import Trajectory, arc_step, rate_limit
+from ..core.control_law import Trajectory, arc_step, rate_limit, rollout, stacked
 from ..core.errors import InputError
+from ..core.exact_cost import evaluate
 from ..core.geometry import body_to_world
 from .optimize.starts import stop_z
+from .plan import Plan, unmeasured
 
 
 def as_state(state) -> RobotState:
@@ -69,6 +71,13 @@ def bounded_control(v: float, omega: float, robot: RobotConfig) -> tuple:
             min(max(omega, -robot.omega_limit), robot.omega_limit))
 
 
+def law_control(trajectory: Trajectory, config: PlannerConfig) -> tuple:
+    """First command of a law's trajectory, forced finite and inside the limits (the law
+    never reverses)."""
+    v, omega = bounded_control(trajectory.v[0], trajectory.omega[0], config.robot)
+    return (max(v, 0.0), omega)
+
+
 def braking(state: RobotState, config: PlannerConfig) -> Trajectory:
     """The trajectory of a robot in collision (Lemma 3): from its measured ``(v, omega)``,
     each step brought toward 0 as hard as ``accel_limit`` and ``alpha_limit`` allow, within
@@ -88,4 +97,57 @@ def braking(state: RobotState, config: PlannerConfig) -> Trajectory:
     return Trajectory(stop_z(config), poses, v, omega, poses[-1].copy())
 
 
-__all__ = ["as_state", "bounded_control", "braking", "start_overlap"]
+def as_tolerance(value) -> float:
+    """``Planner.plan``'s ``goal_tolerance`` as a float, or an InputError naming what is
+    allowed."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = math.nan
+    if isinstance(value, bool) or not (math.isfinite(number) and number >= 0.0):
+        raise InputError(f"goal_tolerance = {value!r}: must be a finite number of metres >= 0")
+    return number
+
+
+
+def braking_plan(state: RobotState, world, goal, overlap: str, config: PlannerConfig) -> Plan:
+    """The plan of a robot whose footprint already overlaps the map or an object (``overlap``
+    says which, :func:`start_overlap`): the :func:`braking` trajectory, whatever the preset,
+    the solver or the stall ladder would do (the paper's Lemma 3: in a collision state the
+    robot does not move); its exact cost, or inf when even that cannot be measured."""
+    trajectory = braking(state, config)
+    try:
+        cost = evaluate(stacked([trajectory]), world, goal, config)[0]
+        fun = float(cost.total) if math.isfinite(float(cost.total)) else math.inf
+    except Exception:  # noqa: BLE001 - a robot in collision must still get its brake
+        cost, fun = unmeasured(trajectory), math.inf
+    v, omega = float(trajectory.v[0]), float(trajectory.omega[0])
+    message = (f"{overlap}; braking as hard as the limits allow and moving no other way "
+               f"(Lemma 3): v {state.v:.2f} -> {v:.2f} m/s, omega {state.omega:.2f} -> "
+               f"{omega:.2f} rad/s")
+    return Plan(trajectory.z, fun, False, message, 0, trajectory,
+                bounded_control(v, omega, config.robot), cost, "start-in-collision", ())
+
+
+def stop_plan(state: RobotState, records, config: PlannerConfig) -> Plan:
+    """Nothing finite: the stop trajectory (v_max = 0), finite by construction.
+
+    Its cost is reported as ``inf``: nothing could be measured, and a plan is never NaN.
+    Should even the rollout fail, the robot holds its pose over the horizon.
+    """
+    z = stop_z(config)
+    n_steps = config.horizon.n_steps
+    try:
+        trajectory = rollout(z, state, config)
+    except Exception:  # noqa: BLE001 - the last resort must not raise
+        pose = np.array(state.pose, dtype=float)
+        trajectory = Trajectory(z, np.tile(pose, (n_steps + 1, 1)), np.zeros(n_steps),
+                                np.zeros(n_steps), pose)
+    message = ("stopped: no start, solve or sample had a finite cost (or every stage "
+               "failed), so the robot brakes to a stop (v_max = 0); cost reported as inf")
+    return Plan(z, math.inf, False, message, 0, trajectory, law_control(trajectory, config),
+                unmeasured(trajectory), "stopped", tuple(records))
+
+
+__all__ = ["as_state", "as_tolerance", "bounded_control", "braking", "braking_plan", "law_control",
+           "start_overlap", "stop_plan"]

@@ -33,6 +33,7 @@ import numpy as np
 
 from dsmpepc_nlp.bench.failure_report import read_tables
 from dsmpepc_nlp.bench.params import named_solver, overrides, replaced
+from dsmpepc_nlp.core.control_law import stacked
 from dsmpepc_nlp.core.exact_cost import evaluate
 from dsmpepc_nlp.core.solver_config import SOLVER_NAMES, SolverConfig
 from dsmpepc_nlp.sim.episode import Episode
@@ -79,7 +80,7 @@ def replay(path, before: float, within: float, pairs: tuple = ()) -> dict:
         time = float(log.times[k])
         if time < contact - before - 1e-9:
             continue
-        ways = moves.stacked([plan.trajectory, moves.dodge_trajectories(state, config),
+        ways = stacked([plan.trajectory, moves.dodge_trajectories(state, config),
                                moves.back_up_trajectories(state, config)])
         total = evaluate(ways, world, goal, config).total
         survival = plan.cost.survivability

@@ -25,6 +25,7 @@ import math
 import numpy as np
 
 from ...core.config import PlannerConfig
+from ...core.control_law import stacked
 from ...core.exact_cost import evaluate
 from ..plan import Plan
 from . import docking
@@ -36,7 +37,6 @@ from .ways import (
     dodge_named,
     replaced,
     reverse_named,
-    stacked,
     turn_named,
     turn_trajectories,
 )

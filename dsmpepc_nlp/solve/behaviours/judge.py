@@ -10,11 +10,11 @@ import math
 import numpy as np
 
 from ...core.config import PlannerConfig
-from ...core.control_law import Trajectory, rollout_from
+from ...core.control_law import Trajectory, rollout_from, stacked
 from ...core.exact_cost import evaluate
 from ..plan import Plan
 from . import docking
-from .ways import replaced, stacked, turn_named, turn_trajectories
+from .ways import replaced, turn_named, turn_trajectories
 
 LAW_STATUSES = ("nlp", "sampling", "sampling-fallback")
 """The statuses of a plan of the law (the NLP's or the sampler's), which :func:`judge_turns`

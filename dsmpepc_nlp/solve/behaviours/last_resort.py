@@ -10,11 +10,12 @@ import math
 import numpy as np
 
 from ...core.config import PlannerConfig
+from ...core.control_law import stacked
 from ...core.exact_cost import evaluate
 from ..plan import Plan
 from . import passive
 from .passive import clearance
-from .ways import Ways, back_up_speed, dodge_named, replaced, reverse_named, stacked
+from .ways import Ways, back_up_speed, dodge_named, replaced, reverse_named
 
 
 def survival_within(plan: Plan, config: PlannerConfig, within: float = math.inf) -> float:

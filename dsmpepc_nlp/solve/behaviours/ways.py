@@ -96,15 +96,6 @@ def turn_trajectories(plan: Plan, state, goal, config: PlannerConfig) -> Traject
 
 
 
-def stacked(trajectories) -> Trajectory:
-    """One batch of ``trajectories`` (each a batch or a single trajectory), in order."""
-    rows = [t if t.z.ndim == 2 else Trajectory(*(getattr(t, f.name)[None]
-                                                for f in dataclasses.fields(Trajectory)))
-            for t in trajectories]
-    return Trajectory(*(np.concatenate([getattr(t, f.name) for t in rows])
-                        for f in dataclasses.fields(Trajectory)))
-
-
 class Ways:
     """This cycle's dodges and reverses from ``state``, each built once, when first read (a
     doomed plan that stays the clearest meets the same ways again in :func:`consider`).

@@ -10,6 +10,7 @@ run on it and return a typed :class:`SolveResult`.
 from __future__ import annotations
 
 import functools
+import math
 import os
 import time
 from dataclasses import dataclass
@@ -60,6 +61,15 @@ class SolveResult:
     lam_x: np.ndarray | None = None
     nfev: int = 0
     ngev: int = 0
+
+    @classmethod
+    def not_run(cls, z0) -> SolveResult:
+        """The result of a start the time budget left no time for: ``z0``, unsolved."""
+        return cls(np.asarray(z0, dtype=float), math.nan, NOT_RUN, False, 0, 0.0)
+
+
+NOT_RUN = "not run: the time budget was spent"
+"""The status of a start the plan's deadline came before (:meth:`SolveResult.not_run`)."""
 
 
 class Problem:

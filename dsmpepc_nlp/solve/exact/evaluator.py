@@ -16,6 +16,7 @@ to the bit.
 
 from __future__ import annotations
 
+import math
 import threading
 from dataclasses import dataclass
 
@@ -115,6 +116,25 @@ class Evaluator:
                 return batch.evaluation(rows)
         return self._cost(z, False).evaluation()
 
+    def evaluate_within(self, z, deadline=None, chunk: int = 512, stage: str = "") -> Evaluation:
+        """:meth:`evaluate` of the rows of ``z`` costed before ``deadline`` (a
+        :class:`~dsmpepc_nlp.core.deadline.Deadline`; None: every row, in one batch): chunks of
+        ``chunk`` rows, the first always, the next only while time is left (``stage`` is
+        recorded as cut when rows are left). Each row costs what it would alone. The compiled
+        kernel only: the numpy path costs every row in one batch."""
+        z = _as_batch(z)
+        if deadline is None or not math.isfinite(deadline.seconds) or len(z) <= chunk \
+                or exact.kernel() is None:
+            return self.evaluate(z)
+        parts = [self._cost(z[:chunk], False)]
+        for first in range(chunk, len(z), chunk):
+            if not deadline.check(stage):
+                break
+            parts.append(self._cost(z[first:first + chunk], False))
+        if any(part._raw is None for part in parts):    # a chunk out of the kernel's reach
+            return self.evaluate(np.vstack([part.z for part in parts]))
+        return _Batch.joined(parts).evaluation()
+
     def times_costed(self, z) -> int:
         """How many times the row ``z`` (4,) was rolled out and costed in this cycle."""
         z = _as_batch(z)
@@ -154,6 +174,12 @@ class _Batch:
             raw = exact.kernel_pass(z, cycle, module, parallel_rows)
             return cls(raw[0], raw=raw, module=module)
         return cls(z, evaluation=_evaluate_numpy(z, cycle, pair_budget))
+
+    @classmethod
+    def joined(cls, parts) -> _Batch:
+        """One batch of the kernel's ``parts`` (costed by the same module), in order."""
+        raw = tuple(np.concatenate(arrays) for arrays in zip(*(p._raw for p in parts)))
+        return cls(raw[0], raw=raw, module=parts[0]._module)
 
     @property
     def total(self) -> np.ndarray:

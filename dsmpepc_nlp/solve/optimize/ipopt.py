@@ -31,6 +31,21 @@ USABLE_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level", "Maximum_Ite
 cost like any other candidate."""
 
 
+WALL_LIMITS = (0.005, 0.01, 0.02, 0.03, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3, 0.5, 1.0)
+"""s: the wall-time limits IPOPT is built with (its options are fixed when an ``nlpsol`` is
+built, ~1 ms each): a solve gets the largest that the plan's deadline leaves time for
+(:func:`wall_limit`)."""
+
+
+def wall_limit(left: float) -> float | None:
+    """IPOPT's ``max_wall_time`` for a solve with ``left`` seconds to the deadline: None
+    without a deadline, 0 when there is no time for a solve (less than the smallest of
+    :data:`WALL_LIMITS`), else the largest of them not above ``left``."""
+    if not math.isfinite(left):
+        return None
+    return max((w for w in WALL_LIMITS if w <= left), default=0.0)
+
+
 def ipopt_options(solver: SolverConfig, warm: bool) -> dict:
     """``casadi.nlpsol`` options for IPOPT from a SolverConfig (``options`` override)."""
     options = dict(_QUIET_IPOPT)
@@ -76,11 +91,12 @@ class IpoptSolver:
         self.solver = solver
         self._built = {}
 
-    def _nlpsol(self, problem: Problem, warm: bool, slot: int = 0):
-        # One nlpsol per thread slot: an nlpsol instance is not for two threads at once.
-        key = (id(problem), warm, slot)
+    def _nlpsol(self, problem: Problem, warm: bool, slot: int = 0, wall: float | None = None):
+        # One nlpsol per thread slot (an nlpsol instance is not for two threads at once) and
+        # per wall-time limit (IPOPT's options are fixed when it is built).
+        key = (id(problem), warm, slot, wall)
         if key not in self._built:
-            self._built[key] = _build_ipopt(problem, self.solver, warm)
+            self._built[key] = _build_ipopt(problem, self.solver, warm, wall)
         return self._built[key]
 
     def solve_many(self, problem: Problem, starts, executor: StartExecutor | None = None) -> list:
@@ -98,17 +114,36 @@ class IpoptSolver:
         slots = executor.slots(len(starts))
         variants = {False, True} if executor.open_ended else \
             {lam_x is not None for _, lam_x in starts}
-        for slot in range(slots if slots > 1 else 0):   # built here, not in the threads:
-            for warm in variants:                         # building is not thread-safe
-                self._nlpsol(problem, warm, slot)
-        return executor.map(lambda start, slot: self.solve(problem, *start, slot=slot), starts)
+        if slots > 1:           # built here, not in the threads: building is not thread-safe
+            built = self.prebuild(problem, slots, variants, executor.time_left())
+            if executor.deadline is not None:       # prepare()'s work, not counted
+                executor.deadline.extend(built)
+        return executor.map(lambda start, slot: self.solve(problem, *start, slot=slot,
+                                                           left=executor.time_left()), starts)
 
-    def solve(self, problem: Problem, z0, lam_x=None, slot: int = 0) -> SolveResult:
+    def prebuild(self, problem: Problem, slots: int, variants=(False, True),
+                 left: float = math.inf) -> float:
+        """Build the ``nlpsol`` of every thread slot, variant (cold, warm) and wall limit a
+        solve with ``left`` seconds to its deadline may be given (:func:`wall_limit`); the
+        seconds spent building (0 when all were built)."""
+        started = time.perf_counter()
+        missing = [(problem, warm, slot, wall) for wall in _walls_up_to(wall_limit(left))
+                   for warm in variants for slot in range(slots)
+                   if (id(problem), warm, slot, wall) not in self._built]
+        for key in missing:
+            self._nlpsol(*key)
+        return time.perf_counter() - started if missing else 0.0
+
+    def solve(self, problem: Problem, z0, lam_x=None, slot: int = 0,
+              left: float = math.inf) -> SolveResult:
         """Minimise from ``z0``, warm-started from ``lam_x`` when given (``slot``: which
-        thread's ``nlpsol``)."""
+        thread's ``nlpsol``), stopping by ``left`` seconds from now (:func:`wall_limit`)."""
         started = time.perf_counter()
         warm = lam_x is not None
-        nlpsol = self._nlpsol(problem, warm, slot)
+        wall = wall_limit(left)
+        if wall == 0.0:
+            return SolveResult.not_run(z0)
+        nlpsol = self._nlpsol(problem, warm, slot, wall)
         args = {"x0": z0, "lbx": problem.lower, "ubx": problem.upper}
         if not problem.functions.compiled:
             args["p"] = problem.p
@@ -137,7 +172,13 @@ class IpoptSolver:
                            **counts)
 
 
-def _build_ipopt(problem: Problem, solver: SolverConfig, warm: bool):
+def _walls_up_to(wall: float | None) -> list:
+    """The wall limits a solve may be given once ``wall`` is the limit now: it and the smaller
+    ones (a later solve has less time left); ``[None]`` without a deadline."""
+    return [None] if wall is None else [w for w in WALL_LIMITS if w <= wall]
+
+
+def _build_ipopt(problem: Problem, solver: SolverConfig, warm: bool, wall: float | None = None):
     """``nlpsol`` over the compiled F, with grad_f and hess_lag from the compiled G and H.
 
     Compiled: the bound functions of z alone (the cycle's parameters are bound once, never
@@ -154,6 +195,8 @@ def _build_ipopt(problem: Problem, solver: SolverConfig, warm: bool):
 
     value, gradient = call("G")
     options = ipopt_options(solver, warm)
+    if wall is not None:
+        options["ipopt.max_wall_time"] = wall
     options["grad_f"] = ca.Function("grad_f", [z, p], [value, gradient], ["x", "p"],
                                     ["f", "grad_f_x"])
     if solver.local.hessian != "quasi-newton":

@@ -20,10 +20,11 @@ import time
 import numpy as np
 
 from ...core.config import PlannerConfig
+from ...core.deadline import Deadline, budget_seconds
 from ...core.solver_config import SolverConfig
 from .. import problem as graph
 from ..build import library as problems
-from ..build.library import readiness
+from ..build.library import NOT_RUN, readiness
 from ..exact import loader as exact
 from ..exact.evaluator import Evaluator
 from ..plan import StartRecord
@@ -50,7 +51,13 @@ class Overlap(StartExecutor):
         return self._further(busy)
 
 
-__all__ = ["NlpSolver", "Overlap"]
+__all__ = ["CUT_STATUSES", "NlpSolver", "Overlap", "SOLVES"]
+
+SOLVES = "the NLP's solves"
+"""The stage a deadline cut when a solve stopped at its wall limit or was not run."""
+
+CUT_STATUSES = (NOT_RUN, "Maximum_WallTime_Exceeded")
+"""Solver statuses that mean the plan's deadline cut the solve."""
 
 
 class NlpSolver:
@@ -149,10 +156,16 @@ class NlpSolver:
         return time.perf_counter() - started
 
     def warm_up(self) -> None:
-        """Load (or compile) now the compiled code a solve runs beyond the problem's library:
-        the fast method's Newton loop (numba), so that no plan compiles it."""
+        """Load (or compile) now what a solve runs beyond the problem's library, so that no
+        plan does: the fast method's Newton loop (numba); IPOPT's ``nlpsol`` of every thread,
+        start kind and wall limit the default time budget may give a solve."""
         if self.solver_config.method == "newton" and self._seen:
             solvers.warm_newton_loop(next(iter(self._seen)))
+        if self.solver_config.method == "ipopt":
+            left = budget_seconds(self.solver_config.time_budget, self.config.horizon.dt)
+            for problem in self._seen:
+                self._solver.prebuild(problem, self.solver_config.parallel.solve_threads,
+                                      left=left)
 
     def problem(self, cycle) -> problems.Problem:
         """The compiled problem for ``cycle`` (built or loaded on first use)."""
@@ -184,7 +197,7 @@ class NlpSolver:
                 order.append(int(i))
         return order
 
-    def solve(self, evaluator: Evaluator, starts: dict) -> list:
+    def solve(self, evaluator: Evaluator, starts: dict, deadline: Deadline | None = None) -> list:
         """Screen every start exactly, run the NLP from the best few; one record per start.
 
         Parameters
@@ -197,6 +210,9 @@ class NlpSolver:
         starts : dict of str to ndarray (4,)
             Named starts (e.g. from :func:`.starts.structured_starts`); the
             ``n_spread`` box starts are added as ``spread-0``, ``spread-1``, ...
+        deadline : Deadline, optional
+            The plan's deadline: no solve starts after it, IPOPT stops at it, the polish ends
+            its walks there; the cut stages are recorded in it (``SOLVES``, ``POLISH``).
 
         Returns
         -------
@@ -220,12 +236,8 @@ class NlpSolver:
         named += self._box_starts[:box]
         box_z = self._box_z[:box]
         self.last_stats = []
-        self.polish.reset()
-        cycle = evaluator.cycle
-        problem = self.problem(cycle)
-        packed = time.perf_counter()
-        problem.bind(problem.pack(cycle))
-        pack_s = time.perf_counter() - packed
+        self.polish.reset(deadline)
+        problem, pack_s = self._bound(evaluator.cycle, deadline)
         records, chosen, screened = [], [], []
 
         def screen(one_thread=False):
@@ -256,7 +268,6 @@ class NlpSolver:
         else:
             screen()
             first = chosen
-        best_cost, best_lam = math.inf, None
         walks = {}
         ahead = None
         if parallel.polish_ahead and not self.kernel_loading:
@@ -267,24 +278,45 @@ class NlpSolver:
                 self._verdicts(guesses, evaluator, one_thread=True)
                 self.polish.ahead(guesses, evaluator, walks, busy)
         began = time.perf_counter()
+        executor = Overlap(parallel.solve_threads, further, ahead)
+        executor.deadline = deadline
         results = self._solver.solve_many(problem, [self._start(*named[i]) for i in first],
-                                          Overlap(parallel.solve_threads, further, ahead))
+                                          executor)
         self.solver_s += time.perf_counter() - began
-        listed()
-        for i, result in zip(chosen, results):
-            name, z0 = named[i]
-            self.last_stats.append({"name": name, "iter_count": result.nit,
+        if deadline is not None and any(r.status in CUT_STATUSES for r in results):
+            deadline.spent(SOLVES)
+        self._solved(listed(), [(i, named[i], r) for i, r in zip(chosen, results)], pack_s,
+                     problem)
+        self._verdicts(records, evaluator)
+        polished = None if self.kernel_loading else self.polish.run(records, evaluator, walks)
+        return records + ([polished] if polished is not None else [])
+
+    def _bound(self, cycle, deadline) -> tuple:
+        """``(problem, seconds packing)``: ``cycle``'s compiled problem, its parameters bound
+        (time spent loading or compiling it is ``prepare()``'s work: not counted against the
+        ``deadline``)."""
+        built = self.build_s
+        problem = self.problem(cycle)
+        if deadline is not None:
+            deadline.extend(self.build_s - built)
+        packed = time.perf_counter()
+        problem.bind(problem.pack(cycle))
+        return problem, time.perf_counter() - packed
+
+    def _solved(self, records, solves, pack_s: float, problem) -> None:
+        """Each solve ``(index, (name, z0), result)`` into its record, in place, with its
+        stats; the cheapest successful solve's multipliers warm the next plan."""
+        best_cost, best_lam = math.inf, None
+        for i, start, result in solves:
+            self.last_stats.append({"name": start[0], "iter_count": result.nit,
                                     "nfev": result.nfev, "ngev": result.ngev,
                                     "t_wall_total": result.time_s, "pack_s": pack_s,
                                     "pose_objects": problem.sizes.k_pose})
-            records[i] = self._solved_record(named[i], result)
+            records[i] = self._solved_record(start, result)
             if result.success and result.lam_x is not None and result.fun < best_cost:
                 best_cost, best_lam = result.fun, result.lam_x
         if best_lam is not None:
             self._lam_x = best_lam
-        self._verdicts(records, evaluator)
-        polished = None if self.kernel_loading else self.polish.run(records, evaluator, walks)
-        return records + ([polished] if polished is not None else [])
 
     @staticmethod
     def _solved_record(start, result) -> StartRecord:

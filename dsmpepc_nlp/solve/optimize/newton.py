@@ -340,6 +340,8 @@ class NewtonSolver:
         if loop is not None:
             def solve(start, slot):
                 z0 = np.asarray(start[0], dtype=float)
+                if executor.time_left() <= 0.0:
+                    return SolveResult.not_run(z0)
                 result = loop.solve(z0, slot)
                 return self._result(problem, z0, result, time.perf_counter() - started)
             try:
@@ -349,6 +351,8 @@ class NewtonSolver:
 
         def python(start, slot):
             z0 = np.asarray(start[0], dtype=float)
+            if executor.time_left() <= 0.0:
+                return SolveResult.not_run(z0)
             begun = time.perf_counter()
             fgh = sr1(problem) if local.hessian == "quasi-newton" else problem.fgh
             result = minimize(problem.f, fgh, z0, problem.lower, problem.upper, **knobs)

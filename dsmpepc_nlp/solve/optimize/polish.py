@@ -36,6 +36,10 @@ bought nothing the cross-check could see for 2.4 times the exact trajectories (d
 "Pass 6")."""
 
 
+STAGE = "the polish"
+"""The stage a deadline cuts when the polish's walks stop short of their rounds."""
+
+
 @dataclasses.dataclass
 class Walk:
     """One pattern search: from ``seed``, at ``z`` of exact ``cost`` after ``rounds`` rounds,
@@ -71,6 +75,7 @@ class Polish:
         self.span = self.upper - self.lower
         self.first_step = solver.polish.step * self.span
         self.last = {"ahead_rounds": 0, "threads": []}
+        self.deadline = None
         self._lock = threading.Lock()
 
     def distinct(self, a, b) -> bool:
@@ -127,7 +132,7 @@ class Polish:
         for seed in seeds:
             walk = self.walk(seed, walks)
             while walk.rounds < self.settings.rounds:
-                if not busy():
+                if not busy() or not self.in_time():
                     return
                 self.round([walk], evaluator, one_thread=True)
                 self.last["ahead_rounds"] += 1
@@ -138,7 +143,7 @@ class Polish:
         walk, or None when it finds nothing better than every candidate (or is off)."""
         rounds = self.settings.rounds
         seeds, best = self.seeds(records, scouts=True)
-        if rounds == 0 or not seeds:
+        if rounds == 0 or not seeds or not self.in_time():
             return None
         started = time.perf_counter()
         walks = [self.walk(seed, {} if walks is None else walks) for seed in seeds]
@@ -160,8 +165,8 @@ class Polish:
         if not scouts:
             return []
         first = min(self.settings.scout_rounds, self.settings.rounds)
-        while active := [w for w in scouts if w.rounds < first]:   # some may have run ahead
-            self.round(active, evaluator)
+        while (active := [w for w in scouts if w.rounds < first]) and self.in_time():
+            self.round(active, evaluator)       # (some may have run ahead)
         order = sorted(range(len(scouts)), key=lambda k: scouts[k].cost)
         return [scouts[k] for k in sorted(order[:self.settings.promoted])]
 
@@ -199,10 +204,17 @@ class Polish:
                 self.last["threads"].append((threading.current_thread().name, len(walks)))
         while True:
             active = [w for w in walks if w.rounds < self.settings.rounds]
-            if not active:
+            if not active or not self.in_time():
                 return
             self.round(active, evaluator, one_thread)
 
-    def reset(self) -> None:
-        """A new cycle: forget where the last one's rounds ran."""
+    def reset(self, deadline=None) -> None:
+        """A new cycle: forget where the last one's rounds ran; walk until ``deadline`` (a
+        :class:`~dsmpepc_nlp.core.deadline.Deadline`, None: every round)."""
         self.last = {"ahead_rounds": 0, "threads": []}
+        self.deadline = deadline
+
+    def in_time(self) -> bool:
+        """True while the cycle's deadline leaves time for another round (:data:`STAGE` is
+        recorded as cut once it does not)."""
+        return self.deadline is None or self.deadline.check(STAGE)

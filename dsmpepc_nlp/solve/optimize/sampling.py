@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...core.config import PlannerConfig
+from ...core.deadline import Deadline
 from ...core.solver_config import SolverConfig
 from ..exact.evaluator import Evaluation, Evaluator
 from .starts import box_samples
@@ -27,8 +28,19 @@ class SamplingPlanner:
         self.config = config
         self.samples = box_samples(config, solver.n_samples, solver.seed)
 
-    def search(self, evaluator: Evaluator, starts: dict | None = None) -> Evaluation:
+    def search(self, evaluator: Evaluator, starts: dict | None = None,
+               deadline: Deadline | None = None) -> Evaluation:
         """Evaluate ``starts`` (a dict of named z) and the sample set with the cycle's
-        ``evaluator``; see :class:`~dsmpepc_nlp.solve.exact.evaluator.Evaluation`."""
+        ``evaluator``; see :class:`~dsmpepc_nlp.solve.exact.evaluator.Evaluation`. With a
+        ``deadline``, in chunks of :data:`CHUNK` rows until it passes (the first chunk
+        always; stage :data:`STAGE` recorded as cut when rows are left)."""
         extra = np.array(list(starts.values())) if starts else np.zeros((0, 4))
-        return evaluator.evaluate(np.vstack([extra, self.samples]))
+        return evaluator.evaluate_within(np.vstack([extra, self.samples]), deadline, CHUNK,
+                                         STAGE)
+
+
+CHUNK = 512
+"""Rows the sampler costs between looks at the plan's deadline (~5-10 ms on the demo scene)."""
+
+STAGE = "the sampler"
+"""The stage a deadline cuts when the sampler's rows are not all costed."""

@@ -60,7 +60,8 @@ def structured_starts(state: RobotState, goal, config: PlannerConfig,
 
 
 SHIPPED_SOBOL = Path(__file__).with_name("sobol4.npy")
-"""The first 4096 points of the sequences of seeds 0 and 1, shipped (``tools/dev/make_sobol.py``)."""
+"""The first 4096 points of the sequences of seeds 0 and 1, shipped
+(``tools/dev/make_sobol.py``)."""
 SHIPPED_SOBOL_SCIPY = "1.17.1"
 """The scipy that drew them (another version may scramble differently; the shipped points
 stay the package's)."""

@@ -11,6 +11,7 @@ ahead): three starts on two threads end with one thread waiting for the last sol
 
 from __future__ import annotations
 
+import math
 import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
@@ -105,6 +106,14 @@ class StartExecutor:
 
     open_ended = False
     """True when :meth:`further` may add starts (a solver then prepares for ``threads``)."""
+
+    deadline = None
+    """The plan's :class:`~dsmpepc_nlp.core.deadline.Deadline`, or None: a solver starts no
+    solve once it has passed (:meth:`time_left`), and IPOPT stops at it."""
+
+    def time_left(self) -> float:
+        """Seconds until :attr:`deadline` (inf without one)."""
+        return math.inf if self.deadline is None else self.deadline.left()
 
     def __init__(self, threads: int = 1):
         self.threads = max(1, int(threads))
