@@ -19,6 +19,7 @@ from dsmpepc_nlp.core.world import DynamicObstacle, World
 from dsmpepc_nlp.solve.behaviours import backup, docking, judge
 from dsmpepc_nlp.solve.behaviours import ways as moves
 from dsmpepc_nlp.solve.exact.cycle import Cycle
+from dsmpepc_nlp.solve.exact.evaluator import Evaluator
 from dsmpepc_nlp.solve.planner import Planner
 
 ON = PlannerConfig(stall=StallConfig(back_up=0.3))
@@ -170,7 +171,8 @@ def test_the_dodges_answer_only_a_blow_expected_within_dodge_within(monkeypatch)
                         lambda *a: built.append(1) or original(*a))
     for config, expected in ((on, 1), (soon, 0)):
         built.clear()
-        backup.consider(kept, state, Cycle.prepare(state, head_on, GOAL, config), level=0)
+        backup.consider(kept, state, Evaluator(Cycle.prepare(state, head_on, GOAL, config)),
+                        level=0)
         assert len(built) == expected
     behind = World(obstacles=[DynamicObstacle.pedestrian((-1.2, 0.0), (1.3, 0.0), 0.3)])
     assert Planner(soon, solver).plan(state, behind, GOAL).status == "dodging"
@@ -224,7 +226,7 @@ def test_switched_off_never_backs_up_and_a_moving_plan_is_kept():
     cycle = Cycle.prepare(state, World(), GOAL, ON)
     moving = Planner(ON, SolverConfig.sampling(n_samples=256)).plan(state, World(), GOAL)
     assert not backup.stands(moving, ON)
-    assert backup.consider(moving, state, cycle, level=3) is None
+    assert backup.consider(moving, state, Evaluator(cycle), level=3) is None
 
 
 def test_a_stalled_robot_facing_away_from_its_goal_turns_in_place_toward_it():
@@ -240,7 +242,7 @@ def test_a_stalled_robot_facing_away_from_its_goal_turns_in_place_toward_it():
         config = monitor.config_for(level)
         plan = Planner(config, solver).plan(state, World(), goal, dock=False)
         cycle = Cycle.prepare(state, World(), goal, config)
-        turned = backup.consider(plan, state, cycle, level)
+        turned = backup.consider(plan, state, Evaluator(cycle), level)
         if level == 0:
             assert turned is None
             continue
@@ -252,7 +254,8 @@ def test_a_stalled_robot_facing_away_from_its_goal_turns_in_place_toward_it():
         assert path_length(turned.trajectory.poses) > 2 * path_length(plan.trajectory.poses)
         off = dataclasses.replace(config, stall=dataclasses.replace(config.stall,
                                                                     turn_to_goal=0.0))
-        kept = backup.consider(plan, state, Cycle.prepare(state, World(), goal, off), level)
+        kept = backup.consider(plan, state, Evaluator(Cycle.prepare(state, World(), goal, off)),
+                               level)
         assert kept is None or kept.status != "turning"
 
 
@@ -385,7 +388,7 @@ def test_a_turn_judged_further_is_taken_only_when_cheaper_over_the_longer_horizo
                      cycle.goal, longer).total
     carried = judge.docked_beyond(plan.trajectory[None], cycle.goal, cycle.config, longer)
     own = evaluate(carried, cycle.world, cycle.goal, longer).total[0]
-    judged = judge.judge_turns(plan, state, cycle)
+    judged = judge.judge_turns(plan, state, Evaluator(cycle))
     n = cycle.config.horizon.n_steps
     assert (judged is not None) == turned
     if judged is None:
@@ -409,21 +412,22 @@ def test_with_the_turns_judged_further_consider_never_judges_them_over_the_horiz
     top = StallConfig().judge_level
     for beyond in (0.2, 2.5):
         plan, state, cycle = judged_case(level=top, beyond=beyond)
-        judged = judge.judge_turns(plan, state, cycle)
-        chosen = backup.consider(plan, state, cycle, level=top)
+        judged = judge.judge_turns(plan, state, Evaluator(cycle))
+        chosen = backup.consider(plan, state, Evaluator(cycle), level=top)
         if judged is None:
             assert chosen is None or chosen.status != "turning"
         else:
             assert chosen.message == judged.message and chosen.fun == judged.fun
     plan, state, cycle = judged_case(level=1)
-    below = backup.consider(plan, state, cycle, level=1)
+    below = backup.consider(plan, state, Evaluator(cycle), level=1)
     off = dataclasses.replace(cycle.config, stall=dataclasses.replace(cycle.config.stall,
                                                                       judge_beyond=0.0))
-    as_off = backup.consider(plan, state, Cycle.prepare(state, cycle.world, cycle.goal, off), 1)
+    as_off = backup.consider(plan, state,
+                             Evaluator(Cycle.prepare(state, cycle.world, cycle.goal, off)), 1)
     assert below.status == "turning" and "judged over" not in below.message
     assert below.message == as_off.message and below.fun == as_off.fun
     plan, state, cycle = judged_case(level=0)
-    assert backup.consider(plan, state, cycle, level=0) is None
+    assert backup.consider(plan, state, Evaluator(cycle), level=0) is None
 
 
 def test_judging_further_is_off_by_default_and_in_the_paper_preset():
@@ -479,11 +483,11 @@ def test_judged_sooner_a_turn_must_also_arrive_before_the_plan(monkeypatch, orde
                                        0.0, 2.0)]
         return found
     monkeypatch.setattr(judge, "arrival_estimate", arrivals)
-    judged = judge.judge_turns(plan, state, cycle, goal_tolerance=0.3)
+    judged = judge.judge_turns(plan, state, Evaluator(cycle), goal_tolerance=0.3)
     if order == "plan-first":
         assert judged is None
         return
-    sooner = judge.judged(plan, state, cycle, goal_tolerance=0.3)[2]     # as patched
+    sooner = judge.judged(plan, state, Evaluator(cycle), goal_tolerance=0.3)[2]     # as patched
     allowed = np.where(sooner[1:] < sooner[0], costs, np.inf)
     if not np.min(allowed) < own:
         assert judged is None and order == "one-turn-sooner"

@@ -17,6 +17,7 @@ from dsmpepc_nlp.core.world import DynamicObstacle, World
 from dsmpepc_nlp.solve.behaviours import backup, last_resort, passive
 from dsmpepc_nlp.solve.behaviours import ways as moves
 from dsmpepc_nlp.solve.exact.cycle import Cycle
+from dsmpepc_nlp.solve.exact.evaluator import Evaluator
 from dsmpepc_nlp.solve.planner import Planner
 
 SOLVER = SolverConfig.sampling(n_samples=256)
@@ -65,26 +66,27 @@ def test_the_clearest_way_is_the_widest_gap_of_the_plan_the_dodges_and_the_rever
     config = doomed()
     cycle = Cycle.prepare(DRIVING, CROSSING, GOAL, config)
     plan = Planner(doomed(below=0.0, back_up=0.0), SOLVER).plan(DRIVING, CROSSING, GOAL)
-    cleared = last_resort.clearest(plan, DRIVING, cycle)
+    cleared = last_resort.clearest(plan, DRIVING, Evaluator(cycle))
     ways = stacked([plan.trajectory, moves.dodge_trajectories(DRIVING, config),
                           moves.back_up_trajectories(DRIVING, config)])
-    gaps = passive.clearance(ways, cycle, 1.0)
+    gaps = passive.clearance(ways, Evaluator(cycle), 1.0)
     assert gaps.shape == (1 + 96 + 3,)
     assert gap(cleared.trajectory, CROSSING, config) == pytest.approx(gaps.max())
     assert gaps.max() > gaps[0]
     # over the whole horizon the gap is the geometry's smallest distance, as the cost reads it
-    whole = passive.clearance(ways, cycle, config.horizon.duration)
+    whole = passive.clearance(ways, Evaluator(cycle), config.horizon.duration)
     np.testing.assert_allclose(whole, evaluate(ways, CROSSING, GOAL, config).min_distance)
     assert np.all(whole <= gaps + 1e-12)
-    assert np.all(passive.clearance(ways, Cycle.prepare(DRIVING, World(), GOAL, config),
-                                   1.0) == np.inf)
+    assert np.all(passive.clearance(ways, Evaluator(Cycle.prepare(DRIVING, World(), GOAL,
+                                                                  config)), 1.0) == np.inf)
 
 
 def test_a_plan_that_is_not_doomed_within_the_second_is_kept():
     config = doomed()
     open_floor = Cycle.prepare(DRIVING, World(), GOAL, config)
     plan = Planner(config, SOLVER).plan(DRIVING, World(), GOAL)
-    assert plan.status == "sampling" and last_resort.clearest(plan, DRIVING, open_floor) is None
+    assert plan.status == "sampling"
+    assert last_resort.clearest(plan, DRIVING, Evaluator(open_floor)) is None
     # three abreast walking at it: struck almost surely, but two seconds out, and within the
     # second the cost still tells the ways apart
     later = World(obstacles=[DynamicObstacle.pedestrian((x, 3.5), (0.0, -1.0), 0.3)
@@ -93,9 +95,10 @@ def test_a_plan_that_is_not_doomed_within_the_second_is_kept():
     within = float(plan.cost.survivability[round(1.0 / config.horizon.dt)])
     assert plan.cost.survivability[-1] < 0.05 <= within
     cycle = Cycle.prepare(DRIVING, later, GOAL, config)
-    assert last_resort.clearest(plan, DRIVING, cycle) is None
+    assert last_resort.clearest(plan, DRIVING, Evaluator(cycle)) is None
     longer = doomed(within=config.horizon.duration)
-    assert last_resort.clearest(plan, DRIVING, Cycle.prepare(DRIVING, later, GOAL, longer)) \
+    assert last_resort.clearest(plan, DRIVING,
+                                Evaluator(Cycle.prepare(DRIVING, later, GOAL, longer))) \
         is not None
 
 
@@ -109,8 +112,8 @@ def test_a_docked_plan_is_doomed_only_before_the_task_ends():
     assert docked.status == "docked" and docked.cost.survivability[5] < 0.05
     assert backup.arrival_time(docked, goal, 0.3, doomed()) == pytest.approx(0.4)
     cycle = Cycle.prepare(state, crossing, goal, doomed())
-    assert last_resort.clearest(docked, state, cycle, arrival=0.4) is None
-    assert last_resort.clearest(docked, state, cycle).status == "clearing"     # read to 1 s
+    assert last_resort.clearest(docked, state, Evaluator(cycle), arrival=0.4) is None
+    assert last_resort.clearest(docked, state, Evaluator(cycle)).status == "clearing"  # to 1 s
     followed = Planner(doomed(), SOLVER).plan(state, crossing, goal)
     assert followed.status == "clearing", followed.message
     assert "(survival 0.00 < 0.05 within 1 s)" in followed.message
@@ -156,10 +159,10 @@ def test_a_doomed_plan_that_stays_the_clearest_builds_the_rungs_ways_once(monkey
     monkeypatch.setattr(moves, "back_up_trajectories",
                         counted("reverses", moves.back_up_trajectories))
     monkeypatch.setattr(last_resort, "clearance",            # the plan keeps the widest gap
-                        lambda ways, cycle, within: -np.arange(len(ways), dtype=float))
-    assert last_resort.clearest(plan, DRIVING, cycle) is None
+                        lambda ways, evaluator, within: -np.arange(len(ways), dtype=float))
+    assert last_resort.clearest(plan, DRIVING, Evaluator(cycle)) is None
     assert built == {"dodges": 1, "reverses": 1}
     built.update(dodges=0, reverses=0)
-    chosen = backup.consider(plan, DRIVING, cycle, level=0)
+    chosen = backup.consider(plan, DRIVING, Evaluator(cycle), level=0)
     assert chosen is not None and chosen.status == "dodging", chosen    # the cost's way
     assert built == {"dodges": 1, "reverses": 1}

@@ -18,6 +18,7 @@ from dsmpepc_nlp.core.world import DynamicObstacle, World
 from dsmpepc_nlp.solve.behaviours import passive
 from dsmpepc_nlp.solve.behaviours import ways as moves
 from dsmpepc_nlp.solve.exact.cycle import Cycle
+from dsmpepc_nlp.solve.exact.evaluator import Evaluator
 from dsmpepc_nlp.solve.planner import Planner
 
 SOLVER = SolverConfig.sampling(n_samples=256)
@@ -52,7 +53,7 @@ def test_where_every_way_touches_someone_the_robot_drives_at_no_one():
     world, config = converging(1.6), with_passive(True)
     cycle = Cycle.prepare(DRIVING, world, GOAL, config)
     every = ways(DRIVING, config)
-    assert passive.clearance(every, cycle, 1.0).max() < 0.0          # no way keeps a gap
+    assert passive.clearance(every, Evaluator(cycle), 1.0).max() < 0.0    # no way keeps a gap
     still = Planner(config, SOLVER).plan(DRIVING, world, GOAL)
     moving = Planner(with_passive(False), SOLVER).plan(DRIVING, world, GOAL)
     assert still.status == moving.status == "clearing", (still.message, moving.message)
@@ -60,7 +61,7 @@ def test_where_every_way_touches_someone_the_robot_drives_at_no_one():
         "it touches" in still.message
     assert "the clearest way over 1 s" in moving.message
     approach = passive.approach_at_contact(
-        stacked([still.trajectory, moving.trajectory]), cycle, 1.0)
+        stacked([still.trajectory, moving.trajectory]), Evaluator(cycle), 1.0)
     assert approach[0] == pytest.approx(0.0, abs=passive.STILL)
     assert approach[1] > 0.2                    # the shallowest overlap drives on into them
     assert np.all(np.isfinite(still.trajectory.poses)) and np.isfinite(still.fun)
@@ -95,8 +96,8 @@ def test_approach_counts_the_speed_toward_whoever_is_touched_and_not_away():
     straight = drive[[i for i in range(len(drive)) if np.all(drive.omega[i] == 0.0)
                       and drive.v[i, -1] == config.robot.v_limit][0]]
     both = stacked([passive.stopping(DRIVING, config), straight])
-    approach = passive.approach_at_contact(both, Cycle.prepare(DRIVING, ahead, GOAL, config),
-                                           1.0)
+    approach = passive.approach_at_contact(
+        both, Evaluator(Cycle.prepare(DRIVING, ahead, GOAL, config)), 1.0)
     assert approach[0] == 0.0                                     # stops short of them
     assert 0.8 < approach[1] <= config.robot.v_limit + 1e-9
     standing = RobotState(0.0, 0.0, math.pi / 2, 0.0, 0.0)
@@ -106,17 +107,17 @@ def test_approach_counts_the_speed_toward_whoever_is_touched_and_not_away():
     away = ahead_of_them[[i for i in range(len(ahead_of_them))
                           if np.all(ahead_of_them.omega[i] == 0.0)][0]]
     cycle = Cycle.prepare(standing, behind, GOAL, config)
-    toward, fleeing = passive.approach_at_contact(stacked([back, away]), cycle, 1.0)
+    toward, fleeing = passive.approach_at_contact(stacked([back, away]), Evaluator(cycle), 1.0)
     assert toward > 0.2 and fleeing == 0.0
-    assert passive.clearance(stacked([away]), cycle, 1.0)[0] < 0.0   # touched, all same
+    assert passive.clearance(stacked([away]), Evaluator(cycle), 1.0)[0] < 0.0   # touched
     occupied = np.zeros((40, 40), bool)
     occupied[27:, :] = True                                       # a wall from y = 0.7 m
     wall = World(OccupancyGrid.from_array(occupied, 0.1, (-2.0, -2.0)))
     hit = passive.approach_at_contact(stacked([straight]),
-                                      Cycle.prepare(DRIVING, wall, GOAL, config), 1.0)
+                                      Evaluator(Cycle.prepare(DRIVING, wall, GOAL, config)), 1.0)
     assert hit[0] == pytest.approx(np.abs(straight.v[:5]).max())
-    nobody = passive.approach_at_contact(both, Cycle.prepare(DRIVING, World(), GOAL, config),
-                                         1.0)
+    nobody = passive.approach_at_contact(
+        both, Evaluator(Cycle.prepare(DRIVING, World(), GOAL, config)), 1.0)
     np.testing.assert_array_equal(nobody, [0.0, 0.0])
 
 
@@ -151,16 +152,16 @@ def test_a_turn_in_place_swings_a_circle_off_the_centre_into_whoever_it_touches(
                                atol=1e-12)                   # across the robot, not along it
     beside = World(obstacles=[DynamicObstacle.pedestrian((offset, 0.55), (0.0, 0.0), 0.3)])
     cycle = Cycle.prepare(standing, beside, GOAL, config)
-    toward = passive.approach_at_contact(turns[:1], cycle, 1.0)[0]
+    toward = passive.approach_at_contact(turns[:1], Evaluator(cycle), 1.0)[0]
     assert toward > 0.1                                  # left swings the front circle at them
     occupied = np.zeros((40, 40), bool)
     occupied[:, 21:] = True                                      # a wall from x = 0.1 m
     wall = World(OccupancyGrid.from_array(occupied, 0.1, (-2.0, -2.0)))
-    hit = passive.approach_at_contact(turns[:1], Cycle.prepare(standing, wall, GOAL, config),
-                                      1.0)
+    hit = passive.approach_at_contact(
+        turns[:1], Evaluator(Cycle.prepare(standing, wall, GOAL, config)), 1.0)
     assert hit[0] > 0.1
     one = with_passive(True)
     spin = stacked([turn_in_place(standing, one, 1.0)])
     near = World(obstacles=[DynamicObstacle.pedestrian((0.0, 0.55), (0.0, 0.0), 0.3)])
-    assert passive.approach_at_contact(spin, Cycle.prepare(standing, near, GOAL, one),
-                                       1.0)[0] == 0.0
+    assert passive.approach_at_contact(
+        spin, Evaluator(Cycle.prepare(standing, near, GOAL, one)), 1.0)[0] == 0.0

@@ -250,7 +250,7 @@ class Planner:
         else:
             if cycle is not None and self.config.stall.levels:    # the ladder's back-up rung
                 plan = self._timed(trouble, deadline, "the recovery", backup.consider, plan,
-                                   state, cycle, level, goal_tolerance) or plan
+                                   state, evaluator, level, goal_tolerance) or plan
             if sample and evaluated is None and cycle is not None:    # docked or the NLP's
                 evaluated = self._try(trouble, "the sampler", self.sampler.search, evaluator,
                                       starts)

@@ -56,13 +56,13 @@ def turn_cost(plan, state, goal, cycle) -> float:
     return float(np.min(np.where(np.isfinite(total), total, np.inf)))
 
 
-def judged_costs(plan, state, cycle, tolerance: float) -> dict:
+def judged_costs(plan, state, evaluator, tolerance: float) -> dict:
     """With ``stall.judge_beyond``, what the rung's judging of the turns weighs
     (:func:`judge.judged`): the plan's and the cheapest turn's exact costs over the longer
-    horizon and their arrival estimates; {} with it off."""
-    if not cycle.config.stall.judge_beyond > 0.0:
+    horizon and their arrival estimates (costed by the plan's ``evaluator``); {} with it off."""
+    if not evaluator.cycle.config.stall.judge_beyond > 0.0:
         return {}
-    _, total, arrival = judge.judged(plan, state, cycle, tolerance)
+    _, total, arrival = judge.judged(plan, state, evaluator, tolerance)
     best = 1 + int(np.argmin(total[1:]))
     return {"judged": {"plan_cost": float(total[0]), "turn_cost": float(total[best]),
                        "plan_arrival": float(arrival[0]), "turn_arrival": float(arrival[best])}}
@@ -93,7 +93,7 @@ def profile(settings, episode: int, seed: int, times, variant="ds-mpepc"):
                 "survivability": _rounded(plan.cost.survivability, round(SURVIVAL_EVERY / dt)),
                 "survivability_end": round(float(plan.cost.survivability[-1]), 3),
                 "turn_cost": turn_cost(plan, state, goal, planner.last_evaluator.cycle),
-                **judged_costs(plan, state, planner.last_evaluator.cycle, tolerance),
+                **judged_costs(plan, state, planner.last_evaluator, tolerance),
                 "next_speed": round(float(log.states[0, k + 1, 3]), 3)}
     plans = [found.get(k, {"time": t, "planned": False}) for k, t in wanted.items()]
     return {"outcome": log.outcomes[0], "time": float(log.outcome_times[0]),

@@ -7,12 +7,13 @@ person stands (docs/results.md, "CrowdNav's stalls are a trap of the control law
 spirit of Nav2's back-up recovery, when the chosen plan would stand and the stall ladder is at
 ``StallConfig.back_up_level`` or above (1 by default: stalled), or the robot expects to be
 struck where the plan leaves it (``StallConfig.back_up_threat``), this rung sets a few reverse
-trajectories against it, costed by the same exact cost (``exact_cost.evaluate``, the numpy
-reference: the compiled kernel and the graph only ever see the law's forward trajectories),
-and takes the cheapest when it is cheaper than the plan. ``StallConfig.back_up`` (m/s; 0 =
-off) and ``back_up_time``; docs/method.md section 7.5. With it come forward dodges against a
-plan the robot expects to be struck on (``StallConfig.dodge``) and, once stalled, turns in place
-each followed by the law (``StallConfig.turn_to_goal``): moves the law cannot make either.
+trajectories against it, costed by the same exact cost through the plan's evaluator
+(``Evaluator.evaluate_trajectories``, the numpy reference: the compiled kernel and the graph
+only ever see the law's forward trajectories), and takes the cheapest when it is cheaper than
+the plan. ``StallConfig.back_up`` (m/s; 0 = off) and ``back_up_time``; docs/method.md
+section 7.5. With it come forward dodges against a plan the robot expects to be struck on
+(``StallConfig.dodge``) and, once stalled, turns in place each followed by the law
+(``StallConfig.turn_to_goal``): moves the law cannot make either.
 Its last resort (``StallConfig.doomed_below``, :func:`clearest`): over a plan struck almost
 surely within the next second, where the cost's collision term has saturated for every way
 near it, the way that keeps the widest gap over that second, not the cheapest.
@@ -26,7 +27,7 @@ import numpy as np
 
 from ...core.config import PlannerConfig
 from ...core.control_law import stacked
-from ...core.exact_cost import evaluate
+from ..exact.evaluator import Evaluator
 from ..plan import Plan
 from . import docking
 from .judge import LAW_STATUSES, judge_turns
@@ -67,21 +68,24 @@ def arrival_time(plan: Plan, goal, goal_tolerance: float, config: PlannerConfig)
     return math.inf if step is None else step * config.horizon.dt
 
 
-def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) -> Plan | None:
-    """The rung's plan, or None (keep ``plan``). With the rung on: reverse trajectories when
+def consider(plan: Plan, state, evaluator: Evaluator, level: int,
+             goal_tolerance: float = 0.0) -> Plan | None:
+    """The rung's plan, or None (keep ``plan``), every way costed by the plan's ``evaluator``
+    (its cycle's world, goal and config). With the rung on: reverse trajectories when
     the plan stands and the ladder is at ``back_up_level`` or above or the plan is
     :func:`threatened`; forward dodges (``stall.dodge``) when it is threatened, standing or
     not; turns in place (``stall.turn_to_goal``, :func:`turn_trajectories`) when the ladder
     is at ``turn_level`` or above and the plan is not docked. A docked plan's threat is read
     at its :func:`arrival_time` (``goal_tolerance``: the fixed goal's, m). The cheapest of
     them by the exact cost replaces the plan if it is cheaper."""
+    cycle = evaluator.cycle
     config = cycle.config
     stall = config.stall
     if stall.back_up <= 0.0:
         return None
     arrival = arrival_time(plan, cycle.goal, goal_tolerance, config)
     ways = Ways(state, config, cycle.world)
-    cleared = clearest(plan, state, cycle, arrival, ways)
+    cleared = clearest(plan, state, evaluator, arrival, ways)
     if cleared is not None:
         return cleared
     threat = threatened(plan, config, arrival)
@@ -94,7 +98,7 @@ def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) 
             and plan.status != "docked")
     if turn and stall.judge_beyond > 0.0 and plan.status in LAW_STATUSES \
             and level >= stall.judge_level:
-        judged = judge_turns(plan, state, cycle, goal_tolerance)
+        judged = judge_turns(plan, state, evaluator, goal_tolerance)
         if judged is not None:
             return judged
         turn = False                    # the turns were judged, over the longer horizon
@@ -104,7 +108,7 @@ def consider(plan: Plan, state, cycle, level: int, goal_tolerance: float = 0.0) 
     if not sets:
         return None
     candidates = stacked([t for _, t in sets])
-    costs = evaluate(candidates, cycle.world, cycle.goal, config)
+    costs = evaluator.evaluate_trajectories(candidates)
     total = np.where(np.isfinite(costs.total), costs.total, np.inf)
     best = int(np.argmin(total))
     if not total[best] < plan.fun:

@@ -16,7 +16,6 @@ from ...core.control_law import (
     wrap,
     z_from_target,
 )
-from ...core.exact_cost import evaluate
 from ..exact.evaluator import Evaluation, Evaluator
 from ..optimize.starts import clip_to_bounds
 
@@ -90,9 +89,10 @@ def approaches(evaluator: Evaluator, targets, config: PlannerConfig) -> list:
     only along its curve and slows with the curvature, so near a goal behind it the robot
     crawled round a wide arc: 0.04 m/s at 0.95 m from the goal in a replayed crowd, until
     the deadlock rule ended the run) and the straight trajectory from where the turn ends. The
-    exact cost is the cycle's (toward its own goal), in two batches: the straight ones by the
-    evaluator, those behind a turn by the numpy reference (as the back-up rung's); each row
-    is the row it would be alone (tested). A turned row's ``z`` is the law's part, seen from
+    exact cost is the cycle's (toward its own goal), in two batches, both by the evaluator: the
+    straight ones as z, those behind a turn by the numpy reference
+    (:meth:`.Evaluator.evaluate_trajectories`, as the back-up rung's); each row is the row it
+    would be alone (tested). A turned row's ``z`` is the law's part, seen from
     where the turn ends."""
     state = evaluator.cycle.state
     limit = config.docking.turn_in_place
@@ -117,7 +117,7 @@ def approaches(evaluator: Evaluator, targets, config: PlannerConfig) -> list:
             cuts.append((spin, steps, (*targets[i], heading), config.robot.v_limit))
         trajectories = turns_then_law(config, cuts, cycle.goal)
         evaluated = Evaluation(trajectories.z, trajectories,
-                               evaluate(trajectories, cycle.world, cycle.goal, cycle.config))
+                               evaluator.evaluate_trajectories(trajectories))
         found.update({i: (evaluated[[row]], (
             f"turning in place first ({offs[i]:.2f} rad off the line to it, more than "
             f"{limit:g}), then heading straight to it")) for row, i in enumerate(turning)})

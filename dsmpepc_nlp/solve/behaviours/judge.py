@@ -1,6 +1,7 @@
 """Judging the turns in place beyond the horizon (``stall.judge_beyond``, off by default): the
 stalled plan and the turns of :func:`.ways.turn_trajectories`, each carried on past the horizon
-by the docking trajectory, costed over the longer horizon (docs/method.md section 7.5)."""
+by the docking trajectory, costed over the longer horizon through the plan's evaluator
+(docs/method.md section 7.5)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import numpy as np
 
 from ...core.config import PlannerConfig
 from ...core.control_law import Trajectory, rollout_from, stacked
-from ...core.exact_cost import evaluate
+from ..exact.evaluator import Evaluator
 from ..plan import Plan
 from . import docking
 from .ways import replaced, turn_named, turn_trajectories
@@ -57,31 +58,34 @@ def arrival_estimate(trajectories: Trajectory, goal, radius: float,
     return np.array([late[i] if step is None else step * dt for i, step in enumerate(steps)])
 
 
-def judged(plan: Plan, state, cycle, goal_tolerance: float = 0.0) -> tuple:
+def judged(plan: Plan, state, evaluator: Evaluator, goal_tolerance: float = 0.0) -> tuple:
     """``(batch, total, arrival)``: the plan (row 0) and :func:`turn_trajectories` over the
     horizon, their exact costs over the horizon lengthened by ``stall.judge_beyond`` (every
-    one carried on past the horizon by :func:`docked_beyond`) and their
-    :func:`arrival_estimate` (within ``goal_tolerance``, else ``docking.arrival_radius``), s.
+    one carried on past the horizon by :func:`docked_beyond`; by the plan's ``evaluator``,
+    with the lengthened config) and their :func:`arrival_estimate` (within
+    ``goal_tolerance``, else ``docking.arrival_radius``), s.
     What :func:`judge_turns` decides on, and ``tools/dev/plan_profile.py`` prints."""
+    cycle = evaluator.cycle
     config = cycle.config
     longer = lengthened(config, config.stall.judge_beyond)
     turns = turn_trajectories(plan, state, cycle.goal, config)
     batch = stacked([plan.trajectory, turns])
     carried = docked_beyond(batch, cycle.goal, config, longer)
-    total = evaluate(carried, cycle.world, cycle.goal, longer).total
+    total = evaluator.evaluate_trajectories(carried, longer).total
     radius = goal_tolerance if goal_tolerance > 0.0 else config.docking.arrival_radius
     return (batch, np.where(np.isfinite(total), total, np.inf),
             arrival_estimate(carried, cycle.goal, radius, config))
 
 
-def judge_turns(plan: Plan, state, cycle, goal_tolerance: float = 0.0) -> Plan | None:
+def judge_turns(plan: Plan, state, evaluator: Evaluator,
+                goal_tolerance: float = 0.0) -> Plan | None:
     """The cheapest of :func:`turn_trajectories` when, over the horizon lengthened by
     ``stall.judge_beyond``, it costs less than ``plan`` (:func:`judged`); None otherwise.
     With ``stall.judge_sooner`` only the turns whose arrival estimate is sooner than the
     plan's compete. The turn comes back as planned over the horizon and costed over it, as
-    every plan is."""
-    config = cycle.config
-    batch, total, arrival = judged(plan, state, cycle, goal_tolerance)
+    every plan is (by the plan's ``evaluator``)."""
+    config = evaluator.cycle.config
+    batch, total, arrival = judged(plan, state, evaluator, goal_tolerance)
     sooner = ""
     if config.stall.judge_sooner:
         total[1:] = np.where(arrival[1:] < arrival[0], total[1:], np.inf)
@@ -91,7 +95,7 @@ def judge_turns(plan: Plan, state, cycle, goal_tolerance: float = 0.0) -> Plan |
     if config.stall.judge_sooner:
         sooner = f", arriving by {arrival[best]:.2f} s against {arrival[0]:.2f} s"
     chosen = batch[best]
-    cost = evaluate(chosen, cycle.world, cycle.goal, config)
+    cost = evaluator.evaluate_trajectories(chosen)
     duration = lengthened(config, config.stall.judge_beyond).horizon.duration
     message = (f"stalled; judged over {duration:g} s, turning in place "
                f"{turn_named(best - 1, chosen, plan)}, then heading on (exact cost "

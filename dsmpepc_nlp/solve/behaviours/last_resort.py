@@ -11,7 +11,7 @@ import numpy as np
 
 from ...core.config import PlannerConfig
 from ...core.control_law import stacked
-from ...core.exact_cost import evaluate
+from ..exact.evaluator import Evaluator
 from ..plan import Plan
 from . import passive
 from .passive import clearance
@@ -33,9 +33,10 @@ millimetre, above round-off)."""
 
 
 
-def clearest(plan: Plan, state, cycle, arrival: float = math.inf,
+def clearest(plan: Plan, state, evaluator: Evaluator, arrival: float = math.inf,
              ways: Ways | None = None) -> Plan | None:
-    """The clearest way out of a doomed ``plan``, or None (keep it; ``stall.doomed_below``).
+    """The clearest way out of a doomed ``plan``, or None (keep it; ``stall.doomed_below``);
+    gaps measured and the way costed by the plan's ``evaluator``.
 
     Doomed: the plan's survival over the next ``stall.clearance_within`` seconds (until
     ``arrival``, s, if that is sooner: a docked plan's :func:`arrival_time`, where the task
@@ -43,6 +44,7 @@ def clearest(plan: Plan, state, cycle, arrival: float = math.inf,
     cycle's :class:`Ways` (``ways`` if already made) are set by their :func:`clearance` over
     the next ``clearance_within`` seconds instead of their cost, and the clearest replaces
     the plan when its gap is wider; all below 0, the least approaching (``stall.passive``)."""
+    cycle = evaluator.cycle
     config = cycle.config
     stall = config.stall
     if not stall.doomed_below > 0.0:
@@ -55,14 +57,14 @@ def clearest(plan: Plan, state, cycle, arrival: float = math.inf,
     dodges = ways.dodges
     reverses = [ways.reverses] if back_up_speed(config) > 0.0 and len(ways.reverses) else []
     candidates = stacked([plan.trajectory, dodges, *reverses])
-    gaps = clearance(candidates, cycle, stall.clearance_within)
+    gaps = clearance(candidates, evaluator, stall.clearance_within)
     gaps = np.where(np.isnan(gaps), -np.inf, gaps)           # a gap not measured keeps nothing
     still = (stall.passive and not np.max(gaps) >= 0.0       # every way touches someone, the
-             and clearance(candidates[:1], cycle, 0.0)[0] >= 0.0)    # start not yet: be still
+             and clearance(candidates[:1], evaluator, 0.0)[0] >= 0.0)  # start not yet: be still
     if still:                               # at the contact (passive.py), a stop put second
         candidates = stacked([candidates[:1], passive.stopping(state, config), candidates[1:]])
-        gaps = np.insert(gaps, 1, clearance(candidates[1:2], cycle, stall.clearance_within))
-        best = passive.least_approaching(candidates, gaps, cycle, stall.clearance_within)
+        gaps = np.insert(gaps, 1, clearance(candidates[1:2], evaluator, stall.clearance_within))
+        best = passive.least_approaching(candidates, gaps, evaluator, stall.clearance_within)
         if best == 0:
             return None             # the plan is as still as any: the rung goes on by the cost
     else:
@@ -79,5 +81,5 @@ def clearest(plan: Plan, state, cycle, arrival: float = math.inf,
     message = (f"the plan is doomed (survival {survival:.2f} < {stall.doomed_below:g} within "
                f"{within:g} s): {how}, keeps {gaps[best]:.2f} m against the plan's "
                f"{gaps[0]:.2f} m; it replaced: {plan.message}")
-    cost = evaluate(chosen, cycle.world, cycle.goal, config)
+    cost = evaluator.evaluate_trajectories(chosen)
     return replaced(plan, chosen, cost, message, "clearing", config)

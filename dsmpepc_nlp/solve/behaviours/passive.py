@@ -12,7 +12,9 @@ counts as still, which keeps the ways out a stop gives up). Of the ways, braking
 (:func:`stopping`) among them, the ones least fast toward whoever they touch
 (:func:`approach_at_contact`) are kept and the widest gap among them is taken. Already in
 contact, the rung opens the gap as before. ``StallConfig.passive`` (on by default);
-docs/method.md section 7.5.
+docs/method.md section 7.5. Every gap is measured through the plan's evaluator
+(:meth:`~dsmpepc_nlp.solve.exact.evaluator.Evaluator.geometry` and
+:meth:`~dsmpepc_nlp.solve.exact.evaluator.Evaluator.circle_gaps`).
 """
 
 from __future__ import annotations
@@ -23,8 +25,8 @@ import numpy as np
 
 from ...core.config import PlannerConfig
 from ...core.control_law import Trajectory, rollout
-from ...core.exact_cost import circle_gaps, exact_geometry
 from ...core.geometry import footprint_points
+from ..exact.evaluator import Evaluator
 from ..optimize.starts import stop_z
 
 STILL = 0.01
@@ -32,14 +34,15 @@ STILL = 0.01
 round-off); the widest gap among them is taken."""
 
 
-def clearance(trajectories: Trajectory, cycle, within: float) -> np.ndarray:
+def clearance(trajectories: Trajectory, evaluator: Evaluator, within: float) -> np.ndarray:
     """m, per trajectory of the batch: the smallest gap between its footprint and any object
     (the map; the people where the cost predicts them) over its first ``within`` seconds,
-    the exact geometry's distance; inf with nothing around."""
-    distance = exact_geometry(trajectories, cycle.world, cycle.goal, cycle.config).distance
+    the exact geometry's distance (``evaluator.geometry``, the plan's cycle); inf with
+    nothing around."""
+    distance = evaluator.geometry(trajectories).distance
     if distance.shape[-1] == 0:
         return np.full(len(trajectories), np.inf)
-    steps = math.ceil(within / cycle.config.horizon.dt - 1e-9)
+    steps = math.ceil(within / evaluator.cycle.config.horizon.dt - 1e-9)
     return distance[:, :steps + 1].min(axis=(1, 2))
 
 
@@ -49,15 +52,17 @@ def stopping(state, config: PlannerConfig) -> Trajectory:
     return rollout(stop_z(config)[None, :], state, config)
 
 
-def approach_at_contact(trajectories: Trajectory, cycle, within: float) -> np.ndarray:
+def approach_at_contact(trajectories: Trajectory, evaluator: Evaluator,
+                        within: float) -> np.ndarray:
     """m/s, per trajectory of the batch: its fastest approach at a contact over its first
     ``within`` seconds. At the first pose whose footprint overlaps each person (the people
     where the cost predicts them), the velocity its overlapping footprint circle arrives or
     leaves with (:func:`circle_velocities`), along the line from that circle to the person's
     (what the contact's fault is read by; later poses are the prediction walking them through
     the robot); at the first pose that overlaps the map, the whole speed of its fastest circle
-    (a wall does not give way). 0 where it touches nothing or only moves away."""
-    config, world = cycle.config, cycle.world
+    (a wall does not give way). 0 where it touches nothing or only moves away. Measured in
+    the plan's cycle by its ``evaluator``."""
+    config, world = evaluator.cycle.config, evaluator.cycle.world
     steps = math.ceil(within / config.horizon.dt - 1e-9)
     poses = trajectories.poses[:, :steps + 1]
     n, s = poses.shape[:2]
@@ -65,12 +70,12 @@ def approach_at_contact(trajectories: Trajectory, cycle, within: float) -> np.nd
     arriving, leaving = circle_velocities(trajectories, points)                     # (n,s,C,2)
     approach = np.zeros(n)
     if world.grid is not None:                           # the map's column comes first
-        walls = exact_geometry(trajectories, world, cycle.goal, config).distance[:, :s, 0] < 0
+        walls = evaluator.geometry(trajectories).distance[:, :s, 0] < 0
         fast = np.maximum(np.linalg.norm(arriving, axis=-1),
                           np.linalg.norm(leaving, axis=-1)).max(axis=-1)              # (n,s)
         approach = np.where(walls.any(axis=1), fast[np.arange(n), walls.argmax(1)], 0.0)
     if world.obstacles:
-        rel, gap = circle_gaps(world, config, points, np.arange(s) * config.horizon.dt)
+        rel, gap = evaluator.circle_gaps(points, np.arange(s) * config.horizon.dt)
         touching = gap < 0.0                                                        # (n,s,C,K)
         toward_them = -rel / np.maximum(np.linalg.norm(rel, axis=-1), 1e-12)[..., None]
         toward = np.maximum(np.einsum("nscd,nsckd->nsck", arriving, toward_them),
@@ -104,10 +109,11 @@ def circle_velocities(trajectories: Trajectory, points: np.ndarray) -> tuple:
     return velocity(*before), velocity(*after)
 
 
-def least_approaching(trajectories: Trajectory, gaps: np.ndarray, cycle, within: float) -> int:
+def least_approaching(trajectories: Trajectory, gaps: np.ndarray, evaluator: Evaluator,
+                      within: float) -> int:
     """The index of the way of ``trajectories`` least fast toward whoever it touches
     (:func:`approach_at_contact`, within :data:`STILL`), the widest of ``gaps`` among them,
     the first on a tie (the plan, put first)."""
-    approach = approach_at_contact(trajectories, cycle, within)
+    approach = approach_at_contact(trajectories, evaluator, within)
     still = approach <= approach.min() + STILL
     return int(np.argmax(np.where(still, np.where(np.isnan(gaps), -np.inf, gaps), -np.inf)))

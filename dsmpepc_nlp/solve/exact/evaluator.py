@@ -1,11 +1,16 @@
-"""The exact cost of a cycle's z: one door, one object per plan.
+"""The exact cost of a cycle's z, and of the trajectories the law cannot make: one door, one
+object per plan.
 
 :class:`Evaluator` is built once per cycle and every stage of a plan goes through it: docking's
 straight trajectory, the NLP's screen, verdicts and polish, the planner's choice and the
 sampler. Behind it, side by side, are the two engines of :func:`evaluate_batch`: the compiled
 kernel (:mod:`.exact`) when it is loaded and the z lie inside the reach the cycle's culling
 rests on, and the numpy reference (:func:`~dsmpepc_nlp.core.exact_cost.evaluate`) otherwise;
-they agree to 1e-9 (held by tests).
+they agree to 1e-9 (held by tests). The behaviours' trajectories that no z makes (reverses,
+dodges, turns in place, a brake, docking's turn-then-law splices, the judge's longer horizon)
+are costed by the numpy reference through :meth:`Evaluator.evaluate_trajectories`, and the last
+resort's gaps are measured through :meth:`Evaluator.geometry` and
+:meth:`Evaluator.circle_gaps` (tests/test_one_door.py holds every stage to this door).
 
 The evaluator keeps every batch it costs for the cycle, so a z costed once is never costed
 again: the plan's chosen z is read back from the batch that found it (a screen, a verdict or a
@@ -22,8 +27,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...core.config import PlannerConfig
 from ...core.control_law import Trajectory, rollout
-from ...core.exact_cost import CostBreakdown, evaluate
+from ...core.exact_cost import CostBreakdown, Geometry, circle_gaps, evaluate, exact_geometry
 from ...core.solver_config import ParallelSettings, SolverConfig
 from . import loader as exact
 from .cycle import Cycle
@@ -77,12 +83,17 @@ class Evaluator:
     Attributes
     ----------
     rows_costed : int
-        Rows rolled out and costed so far (a row read back is not counted again).
+        Rows (z) rolled out and costed so far (a row read back is not counted again).
     batches : list of (int, bool)
-        Each batch costed: its rows, and whether it ran on the calling thread alone
+        Each batch of z costed: its rows, and whether it ran on the calling thread alone
         (``one_thread``).
     read_back : int
         Calls of :meth:`evaluate` answered from a batch costed before.
+    trajectories_costed : int
+        Trajectories costed by :meth:`evaluate_trajectories` (not in ``rows_costed`` nor
+        ``batches``, which count z only).
+    trajectories_measured : int
+        Trajectories measured by :meth:`geometry` and :meth:`circle_gaps`.
     """
 
     def __init__(self, cycle: Cycle, solver: SolverConfig | None = None,
@@ -93,6 +104,7 @@ class Evaluator:
         self.pair_budget = solver.parallel.pair_budget
         self.compiled = compiled
         self.rows_costed = self.read_back = 0
+        self.trajectories_costed = self.trajectories_measured = 0
         self.batches = []
         self._batches = []
         self._lock = threading.Lock()       # a plan's stages cost batches from two threads
@@ -134,6 +146,40 @@ class Evaluator:
         if any(part._raw is None for part in parts):    # a chunk out of the kernel's reach
             return self.evaluate(np.vstack([part.z for part in parts]))
         return _Batch.joined(parts).evaluation()
+
+    def evaluate_trajectories(self, trajectories: Trajectory,
+                              config: PlannerConfig | None = None) -> CostBreakdown:
+        """The exact cost of ``trajectories`` (a batch, or one: the breakdown is batched like
+        them) that no z of the law makes: the numpy reference on the cycle's world and goal,
+        with the cycle's config unless ``config`` is given (the judge's longer horizon).
+        Never kept for reading back; counted in ``trajectories_costed``."""
+        cycle = self.cycle
+        costs = evaluate(trajectories, cycle.world, cycle.goal,
+                         cycle.config if config is None else config)
+        self._count("trajectories_costed", trajectories.poses)
+        return costs
+
+    def geometry(self, trajectories: Trajectory) -> Geometry:
+        """The exact geometry of a batch of ``trajectories`` in the cycle's world with its
+        config (what the cost is assembled from: the last resort's gaps); counted in
+        ``trajectories_measured``."""
+        cycle = self.cycle
+        measured = exact_geometry(trajectories, cycle.world, cycle.goal, cycle.config)
+        self._count("trajectories_measured", trajectories.poses)
+        return measured
+
+    def circle_gaps(self, points: np.ndarray, times: np.ndarray) -> tuple:
+        """:func:`~dsmpepc_nlp.core.exact_cost.circle_gaps` of footprint centres ``points``
+        (n, s, C, 2) at ``times`` (s,) against the cycle's people predicted as the cost predicts
+        them: ``(rel, gap)``; counted in ``trajectories_measured`` (n)."""
+        gaps = circle_gaps(self.cycle.world, self.cycle.config, points, times)
+        self._count("trajectories_measured", points)
+        return gaps
+
+    def _count(self, counter: str, batch: np.ndarray) -> None:
+        """Add ``batch``'s trajectories (its first axis; 1 for a single trajectory's poses)."""
+        with self._lock:
+            setattr(self, counter, getattr(self, counter) + (len(batch) if batch.ndim > 2 else 1))
 
     def times_costed(self, z) -> int:
         """How many times the row ``z`` (4,) was rolled out and costed in this cycle."""
