@@ -76,3 +76,47 @@ def test_a_large_look_up_reads_back_by_index_and_a_larger_batch_is_costed_anew()
     more = np.vstack([z, [[2.0, 0.1, -0.2, 0.7]]])
     evaluator.evaluate(more)
     assert evaluator.read_back == 1 and evaluator.rows_costed == 601
+
+
+@pytest.mark.parametrize("preset", [PlannerConfig, PlannerConfig.paper])
+def test_moves_the_law_cannot_make_cost_on_the_kernel_as_the_reference_does(preset, monkeypatch):
+    """Dodges and turns in place (never reversing, never above v_limit) are costed by the
+    compiled kernel as given; reverses by the numpy reference; together, every breakdown field
+    as the reference gives it, row for row."""
+    from dsmpepc_nlp.core.control_law import stacked
+    from dsmpepc_nlp.core.exact_cost import evaluate
+    from dsmpepc_nlp.core.world import OccupancyGrid
+    from dsmpepc_nlp.solve.behaviours import docking
+    from dsmpepc_nlp.solve.behaviours.ways import back_up_trajectories, dodge_trajectories
+
+    if exact.kernel() is None:
+        pytest.skip("no compiled kernel (DSMPEPC_NO_COMPILE or no numba)")
+    rng = np.random.default_rng(5)
+    config = preset()
+    occupied = rng.random((60, 60)) < 0.03
+    occupied[27:33, 27:33] = False
+    people = [DynamicObstacle.pedestrian(rng.uniform(0.0, 6.0, 2), rng.uniform(-1.0, 1.0, 2))
+              for _ in range(30)]
+    world = World(OccupancyGrid.from_array(occupied, 0.1), people)
+    state = RobotState(3.0, 3.0, 0.4, 0.5, 0.2)
+    goal = np.array([5.5, 1.0])
+    evaluator = Evaluator(Cycle.prepare(state, world, goal, config))
+    forward = stacked([dodge_trajectories(state, config),
+                       docking.turn_in_place(state, config, 1.0)])
+    batch = stacked([back_up_trajectories(state, PlannerConfig()), forward])  # (the product's)
+    kernel_rows = exact.given_in_reach(batch, evaluator.cycle)
+    assert np.any(kernel_rows) and not np.all(kernel_rows)      # both paths run
+    calls = []
+    given = exact.cost_given
+    monkeypatch.setattr(exact, "cost_given", lambda t, *a: calls.append(len(t.z)) or given(t, *a))
+    got = evaluator.evaluate_trajectories(batch)
+    assert calls == [int(np.sum(kernel_rows))]
+    want = evaluate(batch, world, goal, config)
+    for name in ("total", "survivability", "min_distance", "ttg", "ttc_terminal"):
+        np.testing.assert_allclose(getattr(got, name), getattr(want, name), rtol=1e-12,
+                                   atol=1e-12, err_msg=name)
+    for name in want.terms:
+        np.testing.assert_allclose(got.terms[name], want.terms[name], rtol=1e-12, atol=1e-12)
+    one = evaluator.evaluate_trajectories(forward[0])           # a single one: unbatched
+    assert np.ndim(one.total) == 0 and one.total == pytest.approx(float(got.total[len(batch.z)
+                                                                           - len(forward.z)]))

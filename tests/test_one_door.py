@@ -40,13 +40,15 @@ SOLVER = SolverConfig.sampling(n_samples=256)
 
 ENTRY_POINTS = {"evaluate": exact_cost.evaluate, "exact_geometry": exact_cost.exact_geometry,
                 "circle_gaps": exact_cost.circle_gaps, "kernel_pass": loader.kernel_pass,
+                "cost_given": loader.cost_given,
                 "_evaluate_numpy": evaluator_module._evaluate_numpy}
 DOORS = {f.__code__: name for name, f in vars(Evaluator).items() if callable(f)
          and hasattr(f, "__code__")}
 """The code of every method of Evaluator, by name."""
 
 COUNTED = {"rows_costed": {("kernel_pass", "_cost"), ("_evaluate_numpy", "_cost")},
-           "trajectories_costed": {("evaluate", "evaluate_trajectories")},
+           "trajectories_costed": {("evaluate", "evaluate_trajectories"),
+                                   ("cost_given", "evaluate_trajectories")},
            "trajectories_measured": {("exact_geometry", "geometry"),
                                      ("circle_gaps", "circle_gaps")}}
 """Which (entry point, Evaluator method) calls each of the evaluator's counters counts."""
@@ -57,7 +59,7 @@ def rows(name, args) -> int:
     if name == "circle_gaps":                           # (world, config, points, times)
         return len(args[2])
     first = args[0]
-    if name in ("evaluate", "exact_geometry"):
+    if name in ("evaluate", "exact_geometry", "cost_given"):
         return 1 if first.poses.ndim == 2 else len(first.poses)
     return len(first)                                   # z
 

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...core.config import PlannerConfig
-from ...core.control_law import Trajectory, rollout
+from ...core.control_law import Trajectory, rollout, stacked
 from ...core.exact_cost import CostBreakdown, Geometry, circle_gaps, evaluate, exact_geometry
 from ...core.solver_config import ParallelSettings, SolverConfig
 from . import loader as exact
@@ -150,14 +150,29 @@ class Evaluator:
     def evaluate_trajectories(self, trajectories: Trajectory,
                               config: PlannerConfig | None = None) -> CostBreakdown:
         """The exact cost of ``trajectories`` (a batch, or one: the breakdown is batched like
-        them) that no z of the law makes: the numpy reference on the cycle's world and goal,
-        with the cycle's config unless ``config`` is given (the judge's longer horizon).
-        Never kept for reading back; counted in ``trajectories_costed``."""
+        them) that no z of the law makes, on the cycle's world and goal, with the cycle's
+        config unless ``config`` is given (the judge's longer horizon): the compiled kernel
+        costs them as given (:func:`.loader.cost_given`) on the cycle's horizon when their
+        speeds stay within ``[0, v_limit]`` (:func:`.loader.given_in_reach`), else the numpy
+        reference. Never kept for reading
+        back; counted in ``trajectories_costed``."""
         cycle = self.cycle
-        costs = evaluate(trajectories, cycle.world, cycle.goal,
-                         cycle.config if config is None else config)
+        single = trajectories.poses.ndim == 2
+        batch = stacked([trajectories]) if single else trajectories
+        module = exact.kernel() if self.compiled is not False and config in (None, cycle.config) \
+            else None
+        kernel = np.zeros(len(batch.z), bool) if module is None \
+            else exact.given_in_reach(batch, cycle)
+        parts = []
+        if np.any(kernel):
+            parts.append((kernel, exact.cost_given(batch[kernel], cycle, module,
+                                                   self.parallel_rows)))
+        if not np.all(kernel):
+            parts.append((~kernel, evaluate(batch[~kernel], cycle.world, cycle.goal,
+                                            cycle.config if config is None else config)))
+        costs = parts[0][1] if len(parts) == 1 else _scattered(len(batch.z), parts)
         self._count("trajectories_costed", trajectories.poses)
-        return costs
+        return costs[0] if single else costs
 
     def geometry(self, trajectories: Trajectory) -> Geometry:
         """The exact geometry of a batch of ``trajectories`` in the cycle's world with its
@@ -200,6 +215,22 @@ class Evaluator:
 _COMPARE_ALL = 65_536
 """Row pairs up to which a look-up compares every row of a batch at once; above, the batch's
 rows are indexed by their bytes (a sampler's thousands of rows against a screen's hundreds)."""
+
+
+def _scattered(n: int, parts) -> CostBreakdown:
+    """One breakdown of ``n`` rows from ``parts``: ``(rows, breakdown)`` pairs, ``rows`` a
+    boolean mask, each breakdown holding its rows in order."""
+    def place(read):
+        first = np.asarray(read(parts[0][1]))
+        out = np.empty((n, *first.shape[1:]), dtype=first.dtype)
+        for rows, costs in parts:
+            out[rows] = read(costs)
+        return out
+
+    terms = {name: place(lambda c, name=name: c.terms[name]) for name in parts[0][1].terms}
+    return CostBreakdown(place(lambda c: c.total), terms, place(lambda c: c.survivability),
+                         place(lambda c: c.min_distance), place(lambda c: c.ttg),
+                         place(lambda c: c.ttc_terminal))
 
 
 def _as_batch(z) -> np.ndarray:

@@ -180,8 +180,9 @@ def as_breakdown(raw: tuple, module) -> tuple[Trajectory, CostBreakdown]:
         costs = CostBreakdown(
             columns["total"].copy(),
             {name: columns[name].copy() for name in TERM_NAMES},
-            survival, columns["min_distance"].copy(), 1.0 / columns["inv_ttg"],
-            1.0 / columns["inv_ttc_terminal"])
+            survival, columns["min_distance"].copy(),
+            # + 0.0: a -0.0 (a turn in place's progress) is +0.0, as in the numpy reference
+            1.0 / (columns["inv_ttg"] + 0.0), 1.0 / (columns["inv_ttc_terminal"] + 0.0))
     return Trajectory(z, poses, v, omega, target), costs
 
 
@@ -215,6 +216,39 @@ def kernel_pass(z, cycle, module, parallel_rows: int = 64) -> tuple:
         poses[fragile], v[fragile], omega[fragile] = parts
         target[fragile], survival[fragile], out[fragile] = again.target, part_survival, part_out
     return z, poses, v, omega, target, survival, out
+
+
+def cost_given(trajectories: Trajectory, cycle, module, parallel_rows: int = 64) -> CostBreakdown:
+    """The kernel's exact cost of ``trajectories`` (a batch on the cycle's horizon, whatever
+    made them: the law's rollouts or moves it cannot make), costed as given, not rolled out.
+    Its speeds must stay within ``v_limit`` (:func:`given_in_reach`): the cycle's culling of
+    far objects rests on it."""
+    n, n_steps = trajectories.v.shape
+    arrays = [np.array(a, dtype=float, order="C") for a in (
+        trajectories.z, trajectories.poses, trajectories.v, trajectories.omega,
+        trajectories.target)]
+    survival = np.empty((n, n_steps + 1))
+    out = np.empty((n, len(module.OUT)))
+    _run(module, cycle, *arrays, survival, out, True, parallel_rows)
+    return as_breakdown((*arrays, survival, out), module)[1]
+
+
+def given_in_reach(trajectories: Trajectory, cycle) -> np.ndarray:
+    """Which of ``trajectories`` (a batch) the kernel may cost as given (bool, (n,)): on the
+    cycle's horizon, finite, never faster than ``v_limit`` (:func:`inside_reach` for given
+    trajectories) and never reversing. The kernel was written for the law, which never
+    reverses: a reverse's survivability differs from the numpy reference's by up to 1 %
+    (a dodge's or a turn's agrees to the last bits), so reverses are the reference's."""
+    n_steps = cycle.config.horizon.n_steps
+    n = len(trajectories.z)
+    if trajectories.v.shape != (n, n_steps) or trajectories.poses.shape != (n, n_steps + 1, 3):
+        return np.zeros(n, dtype=bool)
+    finite = (np.all(np.isfinite(trajectories.z), axis=1)
+              & np.all(np.isfinite(trajectories.poses), axis=(1, 2))
+              & np.all(np.isfinite(trajectories.omega), axis=1)
+              & np.all(np.isfinite(trajectories.target), axis=1))
+    speeds = trajectories.v
+    return finite & np.all((speeds >= 0.0) & (speeds <= cycle.config.robot.v_limit), axis=1)
 
 
 def _run(module, cycle, z, poses, v, omega, target, survival, out, given, parallel_rows):
