@@ -275,7 +275,8 @@ def test_obstacles_carry_the_estimated_velocity():
     assert np.allclose(obstacle.velocity, track.velocity)
     assert np.linalg.norm(obstacle.velocity - [1.0, -0.5]) < 0.4
     assert np.allclose(obstacle.centers[0], track.position)
-    assert obstacle.radii.tolist() == [0.3]
+    # the default radius, grown by TrackerConfig.inflate standard deviations of the position
+    assert obstacle.radii.tolist() == pytest.approx([0.3 + 2.0 * track.position_std])
 
 
 def test_obstacles_are_predicted_to_now():
@@ -303,7 +304,8 @@ def test_a_reported_speed_is_clipped():
 def test_the_radius_is_the_median_of_the_detected_radii():
     tracker = _tracked_walker(radii=[0.25, 0.26, 0.8, 0.24, 0.25])  # 0.8: two people merged
     assert tracker.tracks[0].radius == pytest.approx(0.25)
-    assert tracker.obstacles()[0].radii.tolist() == pytest.approx([0.25])
+    grown = TrackerConfig().inflate * tracker.tracks[0].position_std
+    assert tracker.obstacles()[0].radii.tolist() == pytest.approx([0.25 + grown])
 
 
 def test_tracks_are_read_only_and_a_young_track_is_less_certain():
@@ -315,6 +317,22 @@ def test_tracks_are_read_only_and_a_young_track_is_less_certain():
     with pytest.raises(ValueError):
         old.mean[0] = 1.0
     assert tracker.tracks[0].mean[0] == old.mean[0]
+
+
+def test_inflate_grows_each_radius_by_its_tracks_position_std():
+    plain, inflated = PeopleTracker(TrackerConfig(inflate=0.0)), PeopleTracker()   # (2.0)
+    assert inflated.config.inflate == 2.0
+    for tracker in (plain, inflated):
+        _standing(tracker, [0.0, 0.0], [0.0, 0.2, 0.4])        # young: its std is large
+    track = inflated.tracks[0]
+    assert track.position_std > 0.05
+    assert inflated.obstacles()[0].radii[0] == pytest.approx(
+        plain.obstacles()[0].radii[0] + 2.0 * track.position_std)
+    for tracker in (plain, inflated):                           # older: a smaller margin
+        _standing(tracker, [0.0, 0.0], PERIOD * np.arange(3, 20))
+    grown = inflated.obstacles()[0].radii[0] - plain.obstacles()[0].radii[0]
+    assert grown == pytest.approx(2.0 * inflated.tracks[0].position_std)
+    assert 0.0 < grown < 2.0 * track.position_std
 
 
 def test_perception_imports_nothing_outside_the_core():

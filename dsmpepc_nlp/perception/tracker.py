@@ -14,7 +14,6 @@ the planner as :class:`DynamicObstacle` pedestrians moving at the estimated velo
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -81,7 +80,14 @@ class Track:
     def position_std(self) -> float:
         """Standard deviation (m) of the position along its most uncertain direction: large
         for a young or coasting track, so a planner could widen its collision spread."""
-        return float(math.sqrt(max(np.linalg.eigvalsh(self.covariance[:2, :2])[-1], 0.0)))
+        return float(position_stds(self.covariance[None])[0])
+
+
+def position_stds(covariances) -> np.ndarray:
+    """Each track's position standard deviation (m) along its most uncertain direction, from
+    its state covariances ``(n, 4, 4)``."""
+    largest = np.linalg.eigvalsh(np.asarray(covariances)[:, :2, :2])[:, -1]
+    return np.sqrt(np.maximum(largest, 0.0))
 
 
 def _frozen(array: np.ndarray) -> np.ndarray:
@@ -182,6 +188,8 @@ class PeopleTracker:
         positions = means[:, :2] + ahead * velocities
         order = np.argsort(state["ids"][confirmed], kind="stable")
         radii = state["radii"][confirmed]
+        if self.config.inflate > 0.0:
+            radii = radii + self.config.inflate * position_stds(state["covariances"][confirmed])
         return [DynamicObstacle.pedestrian(positions[i], velocities[i], radii[i])
                 for i in order]
 
