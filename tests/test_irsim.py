@@ -239,3 +239,130 @@ def test_cli_json_has_the_run_keys(tmp_path, capsys):
     assert summary["sensing"] == "lidar" and summary["outcomes"] == ["success"]
     keys = set(re.findall(r'"(\w+)":', inspect.getsource(sim_metrics.robot_metrics)))
     assert keys and keys <= set(summary["metrics"][0])
+
+
+# -- benchmark irsim, irsim-export barn ----------------------------------------------------
+
+
+def test_benchmark_irsim_rows_and_failures(tmp_path, capsys):
+    """``benchmark irsim``: one row per (world, seed) in irsim.csv/json under IR-SIM's
+    judgement; a run cut short (--max-time 1) keeps its episode, which ``dsmpepc failures``
+    classifies as it does our simulator's."""
+    world = _world(tmp_path, "  - shape: {name: 'circle', radius: 0.3}\n"
+                             "    state: [1.5, 1.6, 0]\n", name="little.yaml")
+    common = ["benchmark", "irsim", "--worlds", str(tmp_path), "--seeds", "0",
+              "--solver", "sampling", "--workers", "1", "--json"]
+    assert main(common + ["--out", str(tmp_path / "ok")]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["runs"] == 1 and summary["success_rate"] == 1.0
+    rows = json.loads((tmp_path / "ok" / "irsim.json").read_text())["rows"]
+    assert [(r["scenario"], r["seed"], r["outcome"]) for r in rows] == [("little", 0, "success")]
+    assert rows[0]["path_length"] > 1.5 and rows[0]["episode_file"] is None
+    assert (tmp_path / "ok" / "irsim.csv").read_text().startswith("scenario,seed,variant")
+
+    assert main(common + ["--out", str(tmp_path / "cut"), "--max-time", "1"]) == 0
+    assert json.loads(capsys.readouterr().out)["timeout_rate"] == 1.0
+    row = json.loads((tmp_path / "cut" / "irsim.json").read_text())["rows"][0]
+    assert row["outcome"] == "timeout" and row["world_file"] == str(world)
+    assert (tmp_path / "cut" / row["episode_file"]).is_file()
+    assert main(["failures", str(tmp_path / "cut"), "--figures", "0", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["unsuccessful_runs"] == 1 and report["unclassified"] == 0
+    assert sum(report["counts"].values()) == 1
+
+
+def _barn_folder(tmp_path, index=7):
+    """A BARN-format folder with one world: the side walls (rows 0 and 29) and three cylinders,
+    a reference path along row 14."""
+    grid = np.zeros((30, 30), dtype=np.int64)
+    grid[[0, 29], :] = 1
+    grid[14, 10] = grid[5, 20] = grid[20, 3] = 1
+    for name in ("grid_files", "path_files"):
+        (tmp_path / "barn" / name).mkdir(parents=True)
+    np.save(tmp_path / "barn" / "grid_files" / f"grid_{index}.npy", grid)
+    path = np.array([[14, 0]] + [[14, c] for c in range(30)], dtype=np.int64)
+    np.save(tmp_path / "barn" / "path_files" / f"path_{index}.npy", path)
+    return tmp_path / "barn", grid
+
+
+def test_export_barn_is_our_barn_world(tmp_path, capsys):
+    """``irsim-export barn``: the exported world is our BARN run of that world: the Jackal's
+    three circles and limits, the start, the goal within 1 m, the UST-10 lidar, 100 s; with
+    ``--cylinders box`` the adapter's exact map is our simulator's BARN map cell for cell."""
+    from dsmpepc_nlp.bench import barn
+
+    data, grid = _barn_folder(tmp_path)
+    out = tmp_path / "worlds"
+    for cylinders in ("circle", "box"):
+        assert main(["irsim-export", "barn", "--data", str(data), "--worlds", "7", "--out",
+                     str(out / cylinders), "--cylinders", cylinders, "--json"]) == 0
+        assert json.loads(capsys.readouterr().out)["files"] == [str(out / cylinders /
+                                                                    "barn-7.yaml")]
+    env = load_env(out / "box" / "barn-7.yaml")
+    try:
+        adapter = IrsimAdapter(env, "lidar")
+        jackal = barn.jackal_robot()
+        robot = adapter.robot_config
+        assert np.allclose(robot.footprint, jackal.footprint, atol=1e-6)
+        assert (robot.v_limit, robot.omega_limit, robot.accel_limit, robot.alpha_limit,
+                robot.reverse_limit) == (jackal.v_limit, jackal.omega_limit,
+                                         jackal.accel_limit, jackal.alpha_limit,
+                                         jackal.reverse_limit)
+        assert adapter.goal.tolist() == list(barn.GOAL) and adapter.goal_tolerance == 1.0
+        state = adapter.state()
+        assert (state.x, state.y, state.phi) == pytest.approx(barn.START, abs=1e-6)
+        lidar = adapter.robot.lidar
+        assert (lidar.number, lidar.range_min, lidar.range_max) == (720, 0.1, 30.0)
+        assert lidar.angle_range == pytest.approx(math.radians(270), abs=1e-6)
+        assert len(env.obstacle_list) == int(grid.sum()) + 96
+        ours = barn.rasterise(barn.cylinder_centres(grid))
+        theirs = adapter.static_grid
+        assert theirs.occupied.shape == ours.occupied.shape
+        assert np.allclose(theirs.origin, ours.origin)
+        assert np.array_equal(theirs.occupied, ours.occupied)
+        assert env.config["custom"] == {"max_time": 100.0, "barn_world": 7,
+                                        "reference_path_length": pytest.approx(
+                                            barn.reference_path_length(
+                                                np.load(data / "path_files" / "path_7.npy")),
+                                            abs=1e-6)}
+    finally:
+        env.end(ending_time=0.0)
+
+
+def test_export_barn_writes_nothing_on_error(tmp_path, capsys):
+    """A missing BARN file among the worlds, or a world file already there: an InputError
+    (exit 2) naming it, and no file written or replaced."""
+    data, _ = _barn_folder(tmp_path)
+    out = tmp_path / "worlds"
+    assert main(["irsim-export", "barn", "--data", str(data), "--worlds", "7,8", "--out",
+                 str(out)]) == 2
+    assert "grid_8.npy" in capsys.readouterr().err
+    assert not out.exists()
+    assert main(["irsim-export", "barn", "--data", str(data), "--worlds", "7", "--out",
+                 str(out)]) == 0
+    before = (out / "barn-7.yaml").read_text()
+    assert main(["irsim-export", "barn", "--data", str(data), "--worlds", "7", "--out",
+                 str(out), "--cylinders", "box"]) == 2
+    assert "--overwrite" in capsys.readouterr().err
+    assert (out / "barn-7.yaml").read_text() == before
+    assert [p.name for p in out.iterdir()] == ["barn-7.yaml"]
+
+
+def test_t_corridor_example_is_the_builtin_scenario():
+    """examples/irsim/t-corridor.yaml: the built-in scenario's map cell for cell, and its parked
+    robot given to the planner as a robot standing still, as the simulator gives it."""
+    from dsmpepc_nlp.sim.scenario import load_scenario
+
+    scenario = load_scenario("t-corridor")
+    env = load_env(EXAMPLES / "t-corridor.yaml")
+    try:
+        adapter = IrsimAdapter(env)
+        grid = adapter.static_grid
+        assert np.allclose(grid.origin, scenario.grid.origin)
+        assert np.array_equal(grid.occupied, scenario.grid.occupied)
+        (parked,) = adapter.moving_obstacles()
+        assert parked.kind == "robot" and np.allclose(parked.velocity, 0.0)
+        assert np.allclose(parked.centers, [scenario.parked[0].pose[:2]])
+        assert adapter.goal.tolist() == list(scenario.agents[0].goal.position)
+    finally:
+        env.end(ending_time=0.0)

@@ -10,8 +10,12 @@ package does not need it.
 - :mod:`.inputs`: the oracle map, IR-SIM's lidar into the local map, noisy people into the
   tracker.
 - :mod:`.loading`: importing IR-SIM quietly, building an environment from a world file.
-- :mod:`.runner`, :mod:`.record`: a whole run under IR-SIM's judgement and its metrics;
-  :mod:`.commands`: ``dsmpepc irsim``.
+- :mod:`.runner`, :mod:`.record`, :mod:`.episode`: a whole run under IR-SIM's judgement, its
+  metrics, and the run as the product's Episode.
+- :mod:`.benchmark`: ``dsmpepc benchmark irsim`` (worlds x seeds into a result table);
+  :mod:`.export`: BARN worlds as IR-SIM world files; :mod:`.commands`: ``dsmpepc irsim``,
+  ``dsmpepc benchmark irsim`` and ``dsmpepc irsim-export``. These three alone use the
+  benchmarks' tables (``dsmpepc_nlp.bench``); the adapter itself never does.
 """
 
 from .adapter import SENSING, IrsimAdapter

@@ -23,6 +23,7 @@ from ..core.errors import InputError
 from ..core.world import DynamicObstacle
 from ..perception import Detections, LaserScan, LocalMap, LocalMapConfig, PeopleTracker
 from ..perception.scan import returns_off_objects
+from ..sim.sensing import LidarSettings
 from .raster import Lattice, image_boxes, rasterise
 from .shapes import describe, static_part
 
@@ -31,6 +32,9 @@ OBJECT_MARGIN = 0.1
 local map (the product simulator's ``LidarSettings.object_margin``)."""
 LOCAL_MAP_RESOLUTION = 0.05
 """Cell side of the lidar's local map, m (Nav2's costmap default, as the product's lidar)."""
+MAP_WINDOW = LidarSettings().window
+"""Largest side of the local map, m: the product simulator's lidar window (20 m), so a long
+lidar (the UST-10's 30 m) rebuilds the same map every cycle in both simulators."""
 DETECTION_NOISE = 0.1
 """Standard deviation of a detected position per axis, m (the product's detector default)."""
 
@@ -96,7 +100,7 @@ class LidarInput:
                              "own scan (add sensors: [{name: lidar2d, ...}] to the robot)")
         self.robot, self.lidar = robot, lidar
         reach = float(lidar.range_max)
-        size = min(max(2.0 * reach + 2.0, 4.0), 40.0)
+        size = min(max(2.0 * reach + 2.0, 4.0), MAP_WINDOW)
         self.local_map = LocalMap(LocalMapConfig(size=size, resolution=LOCAL_MAP_RESOLUTION,
                                                  obstacle_max_range=reach,
                                                  raytrace_max_range=reach))

@@ -25,17 +25,21 @@ FALLBACK_STATUSES = ("sampling-fallback", "stopped")
 
 
 def truth_circles(adapter) -> tuple:
-    """Centres (M, 2), radii (M,) and a pedestrian flag (M,) of every moving object's circles
-    now (the truth; the adapter's velocity measurement is left alone)."""
-    centres, radii, walker = [], [], []
+    """Centres (M, 2), radii (M,), a pedestrian flag (M,) and IR-SIM's own world velocity
+    (M, 2) of every moving object's circles now (the truth; the adapter's velocity measurement
+    is left alone)."""
+    centres, radii, walker, velocities = [], [], [], []
     for obj in adapter.moving_objects():
         body = moving_obstacle(obj, np.zeros(2))
         centres.append(body.centers)
         radii.append(body.radii)
         walker.append(np.full(len(body.radii), body.kind == "pedestrian"))
+        velocity = np.asarray(obj.velocity_xy, dtype=float).reshape(-1)[:2]
+        velocities.append(np.tile(velocity, (len(body.radii), 1)))
     if not centres:
-        return np.zeros((0, 2)), np.zeros(0), np.zeros(0, dtype=bool)
-    return np.concatenate(centres), np.concatenate(radii), np.concatenate(walker)
+        return np.zeros((0, 2)), np.zeros(0), np.zeros(0, dtype=bool), np.zeros((0, 2))
+    return (np.concatenate(centres), np.concatenate(radii), np.concatenate(walker),
+            np.concatenate(velocities))
 
 
 class EpisodeLog:
@@ -45,7 +49,8 @@ class EpisodeLog:
         self.adapter, self.steps_per_plan = adapter, int(steps_per_plan)
         self.footprint = np.asarray(adapter.robot_config.footprint, dtype=float)
         self.times, self.states, self.gaps, self.walker_gaps = [], [], [], []
-        self.plan_times, self.statuses = [], []
+        self.plan_times, self.statuses, self.plan_steps, self.cuts = [], [], [], []
+        self.circles, self.circle_velocities, self.circle_radii = [], [], np.zeros(0)
         self.outcome, self.outcome_time, self.collided = None, math.nan, []
         self.record()
 
@@ -55,7 +60,10 @@ class EpisodeLog:
         pose = np.array([state.x, state.y, state.phi])
         self.times.append(float(self.adapter.env.time))
         self.states.append([state.x, state.y, state.phi, state.v, state.omega])
-        centres, radii, walker = truth_circles(self.adapter)
+        centres, radii, walker, velocities = truth_circles(self.adapter)
+        self.circles.append(centres)
+        self.circle_velocities.append(velocities)
+        self.circle_radii = radii
         points = footprint_points(pose, self.footprint[:, :2])            # (C, 2)
         if radii.size:
             d = np.linalg.norm(points[:, None, :] - centres[None], axis=-1)
@@ -67,9 +75,12 @@ class EpisodeLog:
             self.walker_gaps.append(math.inf)
 
     def planned(self, plan) -> None:
-        """Log one plan's wall time and status."""
+        """Log one plan's wall time, status and whether its time budget ran out (``Plan.cut``
+        not empty); made at the last logged step."""
+        self.plan_steps.append(len(self.times) - 1)
         self.plan_times.append(float(plan.wall_time))
         self.statuses.append(str(plan.status))
+        self.cuts.append(bool(getattr(plan, "cut", ())))
 
     def finish(self, outcome: str, t: float) -> None:
         """Set the outcome (success, collision, timeout) and the time it was decided."""
@@ -148,6 +159,7 @@ class EpisodeLog:
             "following_distance": math.nan,
             "plan_time_median": stats[0], "plan_time_p95": stats[1],
             "plan_time_p99": stats[2], "plan_time_max": stats[3],
+            "plans_out_of_time": float(sum(self.cuts)),
             "cycles": len(self.plan_times), "nlp_plans": self.statuses.count("nlp"),
             "fallback_plans": sum(self.statuses.count(s) for s in FALLBACK_STATUSES),
             "collided_with": list(self.collided),

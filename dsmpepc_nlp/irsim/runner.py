@@ -19,6 +19,7 @@ from ..core.progress import EpisodeProgress
 from ..core.solver_config import SolverConfig
 from ..solve.planner import Planner
 from .adapter import IrsimAdapter
+from .episode import episode_of
 from .loading import load_env, quiet
 from .record import EpisodeLog
 
@@ -78,13 +79,17 @@ def drive(env, adapter, planner, log: EpisodeLog, limit: float, *, frames=False,
 
 def run_world(path, *, sensing: str = "oracle", variant: str = "ds-mpepc",
               solver: str = "sampling", seed: int = 0, out=None, gif: bool = False,
-              max_time=None, resolution: float | None = None, save: bool = True) -> dict:
+              max_time=None, resolution: float | None = None, save: bool = True,
+              episode: bool = False, progress: bool = True) -> dict:
     """Run the IR-SIM world file ``path`` once; return the summary ``dsmpepc run --json``
     prints: scenario, variant, solver, seed, sensing, outcomes, metrics, wall_time, files.
 
     ``seed`` seeds IR-SIM's generator (its random placements, motion and sensor noise) and the
     detection noise of ``tracked``. With ``save`` the log goes to ``out/STEM.npz``; with ``gif``
-    IR-SIM's animation (a frame a plan) to ``out/STEM.gif``.
+    IR-SIM's animation (a frame a plan) to ``out/STEM.gif``. With ``episode`` the summary also
+    holds ``_episode``, the run as the product's Episode (:func:`~.episode.episode_of`), and
+    ``_custom``, the world file's ``custom`` block; ``progress`` False keeps the progress line
+    off stderr (a benchmark shows its own bar).
     """
     path = Path(path)
     out = Path(out if out is not None else "out")
@@ -101,15 +106,22 @@ def run_world(path, *, sensing: str = "oracle", variant: str = "ds-mpepc",
         planner = Planner(config, solver_config)
         log = EpisodeLog(adapter, adapter.steps_for(config))
         limit = time_limit(env, max_time)
-        progress = EpisodeProgress(f"{path.stem} {variant} {solver} {sensing}")
+        shown = EpisodeProgress(f"{path.stem} {variant} {solver} {sensing}") if progress \
+            else None
         started = time.perf_counter()
         # Compile ahead, as the simulator does: no cycle plans on a fallback while it compiles.
         planner.prepare(max_objects=len(adapter.moving_objects()))
-        drive(env, adapter, planner, log, limit, frames=gif, progress=progress)
+        drive(env, adapter, planner, log, limit, frames=gif, progress=shown)
         wall = time.perf_counter() - started
-        progress.done(log.outcome)
+        if shown is not None:
+            shown.done(log.outcome)
         files = {"episode": log.save(out / f"{stem}.npz")} if save else {}
         goal = adapter.goal
+        extra = {} if not episode else {
+            "_episode": episode_of(log, config, {
+                "scenario": path.stem, "solver": solver, "seed": seed, "duration": limit,
+                "irsim_sensing": sensing}),
+            "_custom": _custom(env)}
     finally:
         quiet(_end, env, gif, stem)
     if gif:
@@ -119,7 +131,14 @@ def run_world(path, *, sensing: str = "oracle", variant: str = "ds-mpepc",
         files["animation"] = str(animation)
     return {"scenario": path.stem, "variant": variant, "solver": solver, "seed": seed,
             "sensing": sensing, "outcomes": [log.outcome],
-            "metrics": json_clean([log.metrics(goal)]), "wall_time": wall, "files": files}
+            "metrics": json_clean([log.metrics(goal)]), "wall_time": wall, "files": files,
+            **extra}
+
+
+def _custom(env) -> dict:
+    """The world file's ``custom`` block (IR-SIM hands it over untouched), {} without one."""
+    custom = env.config.get("custom")
+    return dict(custom) if isinstance(custom, dict) else {}
 
 
 def _end(env, gif: bool, stem: str) -> None:
