@@ -43,6 +43,7 @@ from .suites import (
     run_barn,
     run_crowd,
     run_crowdnav,
+    run_options,
     run_scenarios,
     run_sweep,
     solver_config,
@@ -170,14 +171,7 @@ def add_claims(p) -> None:
                    help="samples per plan of the sampling solver, >= 1 (default: SolverConfig's)")
     p.add_argument("--no-examples", action="store_true",
                    help="skip re-running one differing run for the example figure")
-    p.add_argument("--workers", type=options.positive, default=None,
-                   help="parallel worker processes, >= 1 (default: number of cores)")
-    p.add_argument("--out", default="results/claims", help="output folder (default "
-                   "results/claims)")
-    p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
-    p.add_argument("--resume", action="store_true",
-                   help="continue the table in --out, skipping runs already done")
-    p.add_argument("--overwrite", action="store_true", help="discard a table already in --out")
+    run_options(p, "results/claims", scheduler=False)
 
 
 def run_claims(args) -> dict:

@@ -38,6 +38,31 @@ def solver_config(name: str, n_samples: int | None = None) -> SolverConfig:
 
 
 
+def run_options(parser, out_default: str, scheduler: bool = True) -> None:
+    """The options of every command that runs a table of cases: workers (and a Dask
+    scheduler), the output folder, JSON, resuming or overwriting a table."""
+    parser.add_argument("--workers", type=options.positive, default=None,
+                        help="parallel worker processes, >= 1 (default: number of cores)")
+    if scheduler:
+        parser.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                            help="run on a Dask cluster at this scheduler's address instead "
+                                 "of local processes (pip install 'dsmpepc_nlp[sweep]')")
+    parser.add_argument("--out", default=out_default, help=f"output folder (default {out_default})")
+    parser.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    parser.add_argument("--resume", action="store_true",
+                        help="continue the table in --out, skipping runs already done")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="discard a table already in --out")
+
+
+def budget_option(parser) -> None:
+    """``--time-budget``: each plan's deadline (``SolverConfig.time_budget``)."""
+    parser.add_argument("--time-budget", type=options.time_budget, default="auto",
+                        metavar="auto|none|SECONDS",
+                        help="each plan's time budget (default auto: 0.75 of the control "
+                             "period, 0.15 s; none: no deadline)")
+
+
 def table_options(parser, out_default: str, solver_default: str = "nlp",
                    configurable: bool = False) -> None:
     if configurable:
@@ -46,29 +71,16 @@ def table_options(parser, out_default: str, solver_default: str = "nlp",
         parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                             help="replace a field of the preset, e.g. sigma_static=0.05 (a "
                                  "CostConfig field) or stall.levels=0 (repeatable)")
-    parser.add_argument("--workers", type=options.positive, default=None,
-                        help="parallel worker processes, >= 1 (default: number of cores)")
-    parser.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
-                        help="run on a Dask cluster at this scheduler's address instead of "
-                             "local processes (pip install 'dsmpepc_nlp[sweep]')")
+    run_options(parser, out_default)
     parser.add_argument("--sensing", default="oracle", metavar="NAME|FILE",
                         help="what the robots sense: oracle (the truth, default), lidar, "
                              "tracked, realistic, or a profile YAML (docs/sensing.md)")
-    parser.add_argument("--out", default=out_default, help=f"output folder (default {out_default})")
-    parser.add_argument("--json", action="store_true", help="print the summary as one JSON object")
-    parser.add_argument("--resume", action="store_true",
-                        help="continue the table in --out, skipping runs already done")
-    parser.add_argument("--overwrite", action="store_true",
-                        help="discard a table already in --out")
     parser.add_argument("--solver", default=solver_default, choices=SOLVER_NAMES,
                         help=f"planner solver (default {solver_default})")
     parser.add_argument("--samples", type=options.positive, default=None,
                         help="samples per plan of the sampling solver, >= 1 "
                              "(default: SolverConfig's)")
-    parser.add_argument("--time-budget", type=options.time_budget, default="auto",
-                        metavar="auto|none|SECONDS",
-                        help="each plan's time budget (default auto: 0.75 of the control "
-                             "period, 0.15 s; none: no deadline)")
+    budget_option(parser)
 
 
 def add_barn(p) -> None:

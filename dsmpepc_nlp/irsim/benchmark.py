@@ -42,10 +42,15 @@ class IrsimSettings:
     sensing: str = "oracle"
     max_time: float | None = None
     """Time limit, s; None: each world's ``custom.max_time``, else 60 s."""
+    time_budget: float | str | None = "auto"
+    """Each plan's time budget (``--time-budget``; ``SolverConfig.time_budget``)."""
 
     def meta(self) -> dict:
-        return {"benchmark": "irsim", "variant": self.variant, "solver": self.solver,
+        meta = {"benchmark": "irsim", "variant": self.variant, "solver": self.solver,
                 "sensing": self.sensing, "max_time": self.max_time}
+        if self.time_budget != "auto":
+            meta["time_budget"] = "none" if self.time_budget is None else self.time_budget
+        return meta
 
 
 def _natural(path: Path) -> tuple:
@@ -90,7 +95,8 @@ def run_case(path: str, seed: int, settings: IrsimSettings, out_dir=None) -> dic
     try:
         summary = run_world(path, sensing=settings.sensing, variant=settings.variant,
                             solver=settings.solver, seed=int(seed), max_time=settings.max_time,
-                            save=False, episode=True, progress=False)
+                            save=False, episode=True, progress=False,
+                            time_budget=settings.time_budget)
         m, custom = summary["metrics"][0], summary["_custom"]
         if isinstance(custom.get("barn_world"), int):
             row["world"] = custom["barn_world"]

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from ..bench.barn import DEFAULT_V_LIMIT
 from ..bench.results import parse_indices
+from ..bench.suites import budget_option, run_options
 from ..bench.summary import summarised
 from ..core import options
 from ..core.config import VARIANTS
@@ -70,6 +71,7 @@ def _register_run(sub, print_table) -> None:
                    help="seed of IR-SIM's random generator and of the detection noise")
     p.add_argument("--max-time", type=options.number(0.0, low_open=True, unit=" s"),
                    default=None, metavar="SECONDS", help="time limit of the run, s")
+    budget_option(p)
     p.add_argument("--gif", action="store_true", help="also write IR-SIM's animation")
     p.add_argument("--out", default="out", help="folder for the episode log and the GIF")
     p.add_argument("--json", action="store_true", help="print JSON on stdout")
@@ -82,7 +84,7 @@ def cmd_irsim(args, print_table) -> int:
 
     summary = run_world(args.world, sensing=args.sensing, variant=args.variant,
                         solver=args.solver, seed=args.seed, out=args.out, gif=args.gif,
-                        max_time=args.max_time)
+                        max_time=args.max_time, time_budget=args.time_budget)
     if args.json:
         print(json.dumps(summary, allow_nan=False))
         return 0
@@ -114,23 +116,16 @@ def add_benchmark(p) -> None:
                    default=None, metavar="SECONDS",
                    help="time limit of every run, s (default: the world's custom.max_time, "
                         "else 60 s)")
-    p.add_argument("--workers", type=options.positive, default=None,
-                   help="parallel worker processes, >= 1 (default: number of cores)")
-    p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
-                   help="run on a Dask cluster at this scheduler's address instead")
-    p.add_argument("--out", default="results/irsim", help="output folder (default "
-                   "results/irsim)")
-    p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
-    p.add_argument("--resume", action="store_true",
-                   help="continue the table in --out, skipping runs already done")
-    p.add_argument("--overwrite", action="store_true", help="discard a table already in --out")
+    budget_option(p)
+    run_options(p, "results/irsim")
 
 
 def run_benchmark(args) -> dict:
     from . import benchmark
 
     settings = benchmark.IrsimSettings(variant=args.variant, solver=args.solver,
-                                       sensing=args.sensing, max_time=args.max_time)
+                                       sensing=args.sensing, max_time=args.max_time,
+                                       time_budget=args.time_budget)
     paths = benchmark.world_paths(args.worlds)
     _, summary = benchmark.run_benchmark(settings, paths, parse_indices(args.seeds, "--seeds"),
                                          args.out, workers=args.workers,

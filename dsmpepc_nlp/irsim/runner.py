@@ -80,7 +80,7 @@ def drive(env, adapter, planner, log: EpisodeLog, limit: float, *, frames=False,
 def run_world(path, *, sensing: str = "oracle", variant: str = "ds-mpepc",
               solver: str = "sampling", seed: int = 0, out=None, gif: bool = False,
               max_time=None, resolution: float | None = None, save: bool = True,
-              episode: bool = False, progress: bool = True) -> dict:
+              episode: bool = False, progress: bool = True, time_budget="auto") -> dict:
     """Run the IR-SIM world file ``path`` once; return the summary ``dsmpepc run --json``
     prints: scenario, variant, solver, seed, sensing, outcomes, metrics, wall_time, files.
 
@@ -89,12 +89,13 @@ def run_world(path, *, sensing: str = "oracle", variant: str = "ds-mpepc",
     IR-SIM's animation (a frame a plan) to ``out/STEM.gif``. With ``episode`` the summary also
     holds ``_episode``, the run as the product's Episode (:func:`~.episode.episode_of`), and
     ``_custom``, the world file's ``custom`` block; ``progress`` False keeps the progress line
-    off stderr (a benchmark shows its own bar).
+    off stderr (a benchmark shows its own bar). ``time_budget``: each plan's
+    (``SolverConfig.time_budget``).
     """
     path = Path(path)
     out = Path(out if out is not None else "out")
     config = PlannerConfig.variant(variant)
-    solver_config = SolverConfig.named(solver)
+    solver_config = SolverConfig.named(solver).replace(time_budget=time_budget)
     stem = f"{path.stem}-{variant}-{solver}-{sensing}-seed{seed}"
     env = load_env(path, seed=seed, frames=gif, out=out)
     if gif or save:
