@@ -25,6 +25,9 @@ os.environ.setdefault("DSMPEPC_COMPILE", "wait")
 # Planners re-raise what a stage raises instead of falling back (Planner's ``strict``), so a
 # bug is not hidden by a fallback plan; the tests of the fallbacks ask for strict=False.
 os.environ.setdefault("DSMPEPC_STRICT", "1")
+# Plans have no deadline (SolverConfig.time_budget's default), so that no test's outcome depends
+# on how loaded the machine is; the tests of the deadline give their budgets themselves.
+os.environ.setdefault("DSMPEPC_TIME_BUDGET", "none")
 
 
 @pytest.fixture(autouse=True)

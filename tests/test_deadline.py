@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from dsmpepc_nlp.core.config import PlannerConfig, RobotState
-from dsmpepc_nlp.core.deadline import Deadline, budget_seconds, is_budget
+from dsmpepc_nlp.core.deadline import BUDGET_VARIABLE, Deadline, budget_seconds, is_budget
 from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, World
@@ -31,12 +31,20 @@ def _scene():
     return RobotState(0.0, 0.0, 0.0, 0.3, 0.0), World(None, people), np.array([6.0, 0.0])
 
 
-def test_the_default_budget_is_three_quarters_of_the_period_at_most_0_2_s():
+def test_the_default_budget_is_three_quarters_of_the_period_at_most_0_2_s(monkeypatch):
+    monkeypatch.delenv(BUDGET_VARIABLE, raising=False)      # (the suite sets none)
     assert SolverConfig().time_budget == "auto"
     assert budget_seconds("auto", 0.2) == pytest.approx(0.15)
     assert budget_seconds("auto", 1.0) == pytest.approx(0.2)
     assert budget_seconds(None, 0.2) == math.inf
     assert budget_seconds(0.05, 0.2) == 0.05
+    monkeypatch.setenv(BUDGET_VARIABLE, "0.05")             # what "auto" means, elsewhere
+    assert budget_seconds("auto", 0.2) == 0.05 and budget_seconds(0.1, 0.2) == 0.1
+    monkeypatch.setenv(BUDGET_VARIABLE, "none")
+    assert budget_seconds("auto", 0.2) == math.inf
+    monkeypatch.setenv(BUDGET_VARIABLE, "soon")
+    with pytest.raises(InputError, match=BUDGET_VARIABLE):
+        budget_seconds("auto", 0.2)
 
 
 @pytest.mark.parametrize("bad", [0, -0.1, math.nan, "soon", True, [0.1]])

@@ -180,9 +180,10 @@ class SolverConfig:
     use and cached."""
     time_budget: float | str | None = AUTO
     """Seconds a plan may take (:class:`~dsmpepc_nlp.core.deadline.Deadline`): ``"auto"``
-    (default) is three quarters of the control period, at most 0.2 s (0.15 s at the 0.2 s
-    period); None plans without a deadline. When it runs out, the best exact-costed candidate
-    so far is the plan (status ``deadline``), and no later stage starts."""
+    (default; ``$DSMPEPC_TIME_BUDGET`` may make it ``none`` or seconds) is three quarters of
+    the control period, at most 0.2 s (0.15 s at the 0.2 s period); None plans without a
+    deadline. When it runs out, the best exact-costed candidate so far is the plan (status
+    ``deadline``), and no later stage starts."""
 
     def __post_init__(self):
         if self.method not in SOLVER_METHODS:
