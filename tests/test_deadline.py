@@ -129,3 +129,16 @@ def test_a_budget_that_never_runs_out_changes_no_plan(method):
 
 def test_deadline_is_a_status_appended_last():
     assert STATUSES[-1] == "deadline"
+
+
+def test_a_stage_that_cannot_stop_runs_only_when_the_time_left_covers_its_last_run():
+    """The recovery once took 1 s: with 0.5 s it is skipped (and cut), and what is expected of
+    it shrinks each plan, run or skipped, so one slow run does not keep it off for good."""
+    planner = Planner(PlannerConfig(), SolverConfig.sampling(n_samples=64))
+    state, world, goal = _scene()
+    planner._took["the recovery"] = 1.0
+    plan = planner.plan(state, world, goal, dock=False, time_budget=0.5)
+    assert "the recovery" in plan.cut
+    assert planner._took["the recovery"] == pytest.approx(0.95)
+    plan = planner.plan(state, world, goal, dock=False, time_budget=None)
+    assert plan.cut == () and planner._took["the recovery"] < 0.95 * 0.95 + 1e-9

@@ -284,9 +284,11 @@ class Planner:
     def _timed(self, trouble, deadline: Deadline, stage: str, function, *args):
         """A stage that cannot stop once started (docking, the recovery): :meth:`_try` when
         the time left covers what it took lately (its slowest run, decaying by
-        :data:`TOOK_DECAY` a plan), else skipped and recorded as cut."""
+        :data:`TOOK_DECAY` a plan, run or skipped: one slow run does not keep it off), else
+        skipped and recorded as cut."""
         took = self._took.get(stage, 0.0)
         if not deadline.check(stage, took):
+            self._took[stage] = TOOK_DECAY * took
             return None
         began = time.perf_counter()
         result = self._try(trouble, stage, function, *args)
