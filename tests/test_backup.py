@@ -208,8 +208,9 @@ def test_a_docked_plan_is_read_for_threat_where_the_task_ends_with_threat_until_
 
 
 def test_a_robot_standing_at_its_goal_does_not_back_away_by_default():
-    """What level 0 did (docs/results.md) and level 1 does not: the stall monitor never counts
-    a robot at its goal as stalled, so the rung leaves it standing there."""
+    """What level 0 did (docs/experiments/2026-11-25-back-up-rung.md) and level 1 does not: the
+    stall monitor never counts a robot at its goal as stalled, so the rung leaves it standing
+    there."""
     state, goal = RobotState(1.0, 1.0, 0.0), (1.0, 1.0)
     planner = Planner(PlannerConfig(), SolverConfig.sampling(n_samples=64))
     assert all(planner.plan(state, World(), goal).status != "backing-up" for _ in range(15))

@@ -29,7 +29,8 @@ def test_defaults_are_the_methods():
     assert (cfg.cost.a, cfg.cost.s_ttc, cfg.cost.s_ttg) == (0.7, 0.5, 1e-3)
     assert (cfg.cost.sigma_static, cfg.cost.sigma_dynamic) == (0.1, 0.2)
     assert (cfg.cost.c_heading, cfg.cost.c_v, cfg.cost.c_w) == (0.2, 0.2, 0.1)
-    # The collision weight is ours (docs/results.md); the paper preset keeps IROS 2012's.
+    # The collision weight is ours (docs/experiments/2026-11-25-heavier-collision-weight.md);
+    # the paper preset keeps IROS 2012's.
     assert cfg.cost.c_collision == 0.3 and PlannerConfig.paper().cost.c_collision == 0.1
     assert cfg.z_upper == (8.0, 1.0, 1.8, cfg.robot.v_limit)
     assert cfg.docking.radius == 2.0

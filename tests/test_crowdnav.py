@@ -243,8 +243,9 @@ def test_the_episode_keeps_the_planners_configuration_and_the_loops_step():
 @pytest.mark.slow
 @pytest.mark.parametrize("beyond, outcome", [(0.0, "timeout"), (2.5, "success")])
 def test_a_stalled_robot_judged_beyond_the_horizon_gets_through(beyond, outcome):
-    """Square invisible, test case 210 (docs/results.md, "Judging a stalled robot's turns
-    beyond the horizon"): with the turns judged over the horizon only, every plan creeps and
+    """Square invisible, test case 210
+    (docs/experiments/2026-11-29-judging-turns-beyond-the-horizon.md): with the turns judged
+    over the horizon only, every plan creeps and
     puts its passage between two standing people off until the time runs out; judged 2.5 s
     further once stalled (``judge_level`` 1), a turn in place wins and the robot arrives.
     Either solver (``fast`` as CI's slow run, or IPOPT). The standing map is off here, as

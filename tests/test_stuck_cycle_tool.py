@@ -19,7 +19,8 @@ def test_a_robot_facing_an_open_goal_is_told_to_go_not_to_stand(tmp_path, capsys
 
 
 def test_the_law_cannot_back_away_from_a_person_just_ahead(tmp_path, tool):
-    """The trap of docs/results.md: a standing person 0.05 m ahead, the goal beyond them.
+    """The trap of docs/experiments/2026-11-25-two-more-failure-classes.md: a standing person
+    0.05 m ahead, the goal beyond them.
     The pose-following law turns only while driving forward, so no trajectory keeps more
     survivability than standing (a law that can back up or spin in place would)."""
     peds = np.tile([[[0.65, 0.0]]], (6, 1, 1))

@@ -3,7 +3,7 @@ benchmark folders.
 
 Reads a folder ``ROOT`` that holds, for each benchmark, the ``--out`` folder of a run with the
 product's defaults and one with ``--preset paper``: ``ROOT/<name>-product`` and
-``ROOT/<name>-paper`` (any ``<name>``; the commands in docs/results.md, "The published tables",
+``ROOT/<name>-paper`` (any ``<name>``; the commands in docs/results.md, "How to make the tables",
 make them). Prints one markdown table of the navigation benchmarks (``dsmpepc benchmark barn``,
 ``crowd``, ``crowdnav``: DS-MPEPC's rows) with, for each preset: success, collision (at fault /
 struck), timeout, deadlock, mean time to goal and path length of the successes, plan time

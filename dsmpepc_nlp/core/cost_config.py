@@ -24,7 +24,7 @@ class CostConfig:
     dynamic_sigma`; docs/method.md section 3.2). An extension of ours, off (the paper's constant
     width): the constant-velocity prediction's error does grow with t (0.15-0.18 m per second
     of look-ahead, RMS per axis, on ETH/UCY's eth and hotel), but a bell that wide lost on
-    CrowdNav's tuning episodes (docs/results.md)."""
+    CrowdNav's tuning episodes (docs/experiments/2026-11-25-robots-that-get-there.md)."""
     c_heading: float = 0.2
     """Weight of the terminal heading error against the NF descent direction, 1/rad (IROS 2012)."""
     c_v: float = 0.2
@@ -35,7 +35,7 @@ class CostConfig:
     """Cost of a collision per step, weighted by 1 - survivability. IROS 2012 and the paper:
     0.1 (:meth:`PlannerConfig.paper`); ours 0.3, chosen on CrowdNav's tuning episodes: at 0.1
     the term weighs little against progress, and the robot took passes that people then walked
-    into (docs/method.md section 8, docs/results.md)."""
+    into (docs/method.md section 8, docs/experiments/2026-11-25-heavier-collision-weight.md)."""
     w_progress: float = 1.0
     """Weight of the progress term (the paper: 1; docs/method.md section 5.3)."""
     w_action: float = 1.0
@@ -57,7 +57,7 @@ class CostConfig:
     ``sqrt(resolution^2 / 12 + localisation_std^2)`` (the map's quantisation, a uniform error
     over a cell, and the robot's localisation), instead of ``sigma_static``, a constant from
     another robot's office map (docs/method.md section 3.2). BARN's 300 worlds: success 0.66 ->
-    0.98, no collision (docs/results.md)."""
+    0.98, no collision (docs/experiments/2026-11-24-static-bell-from-the-map.md)."""
     localisation_std: float = 0.03
     """Standard deviation of the robot's position on the map, m (with
     ``sigma_static_from_map``): a 2-D lidar's localisation on an indoor map (our choice)."""

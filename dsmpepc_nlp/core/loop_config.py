@@ -47,7 +47,8 @@ class DockingConfig:
     ended the run: ETH/UCY's 'wandering' class). Docking's survivability test judges the turn
     and the approach together. pi/4 is the angle at which Nav2's rotation shim controller
     turns a robot in place before its path follower takes over (docs/method.md section 7.1).
-    On by default: it won on the tuning episodes (docs/results.md)."""
+    On by default: it won on the tuning episodes
+    (docs/experiments/2026-11-27-turning-in-place-to-dock.md)."""
 
     region_points: int = 8
     """Our extension, a count (0: off, as in :meth:`PlannerConfig.paper`): when the straight
@@ -60,14 +61,15 @@ class DockingConfig:
     and a person standing beside the goal point need not keep it off the rest. 8 points put
     neighbours 0.15 m apart on the 0.2 m circle of a 0.3 m tolerance, under a person's
     radius (docs/method.md section 7.1). On by default: it won on the tuning episodes
-    (docs/results.md)."""
+    (docs/experiments/2026-11-28-docking-within-the-goals-region.md)."""
     region_turns: bool = True
     """With ``region_points``: whether a point of the goal's region that lies more than
     ``turn_in_place`` off the heading may be docked at (after a turn in place toward it). A
     region point is tried only when the goal point failed, that is with somebody near the goal,
     and a turn in place holds the robot still for 0.5-2 s among them; False tries only
     the region points the robot can head to straight (docs/method.md section 7.1). Left on:
-    on the tuning episodes False changed no run (docs/results.md)."""
+    on the tuning episodes False changed no run
+    (docs/experiments/2026-11-28-region-points-behind-a-turn.md)."""
     arrival_at_tolerance: bool = True
     """Our extension (off in :meth:`PlannerConfig.paper`): with a ``goal_tolerance`` larger
     than ``arrival_radius``, read a docking trajectory's survivability where it first comes
@@ -75,7 +77,8 @@ class DockingConfig:
     task ends there, as the simulator judges a fixed goal, so the rest of the way to the point
     is the next task's risk, the reason ``arrival_radius`` is read at all. With a person
     standing beside the goal the last 0.2 m are the riskiest of the way (docs/method.md
-    section 7.1). On by default: it won on the tuning episodes (docs/results.md)."""
+    section 7.1). On by default: it won on the tuning episodes
+    (docs/experiments/2026-11-28-docking-arrival-at-tolerance.md)."""
 
     def __post_init__(self):
         check_integers(self, {"region_points": 0})
@@ -116,7 +119,7 @@ class StallConfig:
     than ``min_displacement`` in every window, so without this test it never climbs the
     ladder before the rule fires. 0.2 m, ``min_displacement``'s rate (ours). On by default:
     it won 4 tuning runs and lost 1, and most that arrived either way arrived sooner
-    (docs/results.md)."""
+    (docs/experiments/2026-11-29-stall-progress-test.md)."""
     levels: int = 3
     """The ladder's highest level; 0 turns the monitor off."""
     gain: float = 2.0
@@ -127,16 +130,17 @@ class StallConfig:
     reverse trajectories at this speed (straight back, and curving back either way at a 1 m
     radius) for ``back_up_time``, then braking; the exact cost takes the cheapest if it is
     cheaper than the plan. The pose-following law turns only while it drives forward, so a
-    robot facing a person just ahead has no way out of its own (docs/results.md; ours, as
-    Nav2's back-up).
+    robot facing a person just ahead has no way out of its own
+    (docs/experiments/2026-11-25-two-more-failure-classes.md; ours, as Nav2's back-up).
     0.3 m/s is what one plan period's braking takes back (``accel_limit * dt``, the cap). On
-    by default: it won on the tuning episodes (docs/results.md)."""
+    by default: it won on the tuning episodes (docs/experiments/2026-11-25-back-up-rung.md)."""
     back_up_time: float = 1.0
     """How long the back-up rung reverses before braking, s (our choice: five plans)."""
     back_up_level: int = 1
     """The ladder's level from which the back-up rung acts: 1, once stalled for a window (the
     stall monitor does not count a robot at its goal); 0, on any plan that would stand, which
-    also backed robots away from a goal they stood at (docs/results.md: measured, not taken).
+    also backed robots away from a goal they stood at
+    (docs/experiments/2026-11-25-back-up-rung.md: measured, not taken).
     The rung acts only with the ladder on (``levels`` > 0)."""
     back_up_threat: float = 0.5
     """Below ``back_up_level`` too, the rung acts on a plan that would stand where the robot
@@ -146,7 +150,7 @@ class StallConfig:
     makes every forward way out cost as much as the wait, since the law cannot turn without
     first closing the gap; a reverse can open it. 0.5, "more likely
     struck than not", was set before any run (ours). On by default: it won on the tuning
-    episodes (docs/results.md)."""
+    episodes (docs/experiments/2026-11-25-threat-gate-and-speed-ramp.md)."""
 
     dodge: bool = True
     """With the rung on (``back_up`` > 0), a plan the robot expects to be struck on (its
@@ -158,7 +162,7 @@ class StallConfig:
     the robot's side leaves it no way out of its own; a failure search of CrowdNav's square
     crossing (``dsmpepc failures --escape``) found a forward way out of most of its
     collisions (ours; docs/method.md section 7.5). On by default: it won on the tuning
-    episodes (docs/results.md)."""
+    episodes (docs/experiments/2026-11-25-dodges-follower-escape-search.md)."""
     dodge_within: float = 5.0
     """s: the dodges answer a blow expected this soon, where the plan's survival at this time
     (the first step at or after it; the horizon's end when it is longer) is below
@@ -167,16 +171,17 @@ class StallConfig:
     full turn rate: a blow further off is one the law's own plans can still steer around,
     and a dodge taken against it can turn the robot away from its way (the built-in hall's
     follower, MPEPC, arrives with 1 s and times out with 5 s). Not the default: 1 s lost on
-    the tuning episodes (docs/results.md)."""
+    the tuning episodes (docs/experiments/2026-11-27-turning-in-place-to-dock.md)."""
     threat_until_arrival: bool = True
     """Our extension (off in :meth:`PlannerConfig.paper`): with a fixed goal's tolerance
     (``plan(goal_tolerance=...)`` above 0), the gate reads a docked plan's survival where its
     way first comes within that tolerance of the goal, not at the horizon's end: the task ends
     there, and docking itself judged the way up to there (``docking.arrival_at_tolerance``).
     Read at the horizon's end, a person who walks over the goal after the robot would have
-    arrived replaced the docked way with a dodge (ETH/UCY univ, episode 22; docs/results.md).
-    A followed goal's task does not end on arrival: its docked plans keep the horizon's end.
-    On by default: it won on the tuning episodes (docs/results.md)."""
+    arrived replaced the docked way with a dodge (ETH/UCY univ, episode 22). A followed goal's
+    task does not end on arrival: its docked plans keep the horizon's end. On by default: it
+    won on the tuning episodes
+    (docs/experiments/2026-11-28-docked-plans-threat-until-arrival.md)."""
 
     turn_to_goal: float = math.pi / 4
     """rad (0: off): once stalled (from ``turn_level`` of the ladder on), the rung also sets
@@ -191,7 +196,7 @@ class StallConfig:
     round at 0.03 m/s (it still times out with the turns). Nav2's recoveries spin a stuck
     robot in place; pi/4 is docking's angle, Nav2's rotation shim's (ours; docs/method.md
     section 7.5). Not over a docked plan. On by default: it won on the tuning episodes
-    (docs/results.md)."""
+    (docs/experiments/2026-11-27-turns-in-place-when-stalled.md)."""
     turn_level: int = 1
     """The ladder's level from which ``turn_to_goal`` acts: 1, once stalled for a window; 0,
     on every plan."""
@@ -204,18 +209,19 @@ class StallConfig:
     itself, a stalled robot's plan that creeps while it turns and goes through a gap in its
     last second or two carries only part of that passage's risk, so it costs less than a turn
     that goes through at once, and each next plan puts the passage off again (CrowdNav square
-    invisible's stalls, docs/results.md). Judged further, both carry the passage. Ours; half
-    the horizon, 2.5 s."""
+    invisible's stalls, docs/experiments/2026-11-29-square-invisible-stalls.md). Judged
+    further, both carry the passage. Ours; half the horizon, 2.5 s."""
     judge_level: int = 3
     """The ladder's level from which ``judge_beyond`` acts (and not below ``turn_level``):
     3, the ladder's top by default, where the progress weight can rise no more; 1, once
-    stalled (both measured in docs/results.md)."""
+    stalled (both measured in
+    docs/experiments/2026-11-29-judging-turns-beyond-the-horizon.md)."""
     judge_sooner: bool = False
     """With ``judge_beyond``, a turn replaces the plan only when it is also expected to arrive
     sooner (``backup.arrival_estimate``: where it first comes within the goal's tolerance over
     the longer horizon, else the longer horizon's end plus the straight way left at the speed
     limit), so a turn that is cheaper only by going the long way round a person is not taken.
-    Ours (docs/results.md)."""
+    Ours (docs/experiments/2026-11-29-judged-turn-arriving-sooner.md)."""
     doomed_below: float = 0.05
     """The rung's last resort (0 turns it off; it acts with the rung on, ``back_up`` > 0): a
     plan whose survival over the next ``clearance_within`` seconds (the exact cost's ``p^s``;
@@ -230,7 +236,7 @@ class StallConfig:
     apart. Read within the second, not to the horizon's end: a doom seconds away is one the
     cost still weighs, and a gap over one second is blind to it. Ours: 0.05, struck nineteen
     times in twenty, set before any run. On by default: it won on the tuning episodes
-    (docs/results.md, "A last resort for a doomed plan")."""
+    (docs/experiments/2026-11-29-last-resort-for-a-doomed-plan.md)."""
     clearance_within: float = 1.0
     """s: how far ahead a doomed plan's ways are set by their gaps (``doomed_below``). Within
     a second the constant-velocity prediction is about as good as the bell is wide (its
@@ -246,7 +252,7 @@ class StallConfig:
     prediction has a little wrong. After Fraichard's passive motion safety (at rest at a
     contact); ours.
     On by default: on the tuning episodes it won as many runs as it lost and left fewer
-    contacts at fault (docs/results.md, "Drive at no one where every way touches someone")."""
+    contacts at fault (docs/experiments/2026-11-30-passive-safety.md)."""
 
     def __post_init__(self):
         check_booleans(self, ("dodge", "threat_until_arrival", "judge_sooner", "passive"))
@@ -292,7 +298,8 @@ class PredictionConfig:
     crept at a gap it could not pass until the deadlock rule ended the run. On the grid the
     navigation function routes round them (docs/method.md section 3.1). One second, so that a
     walker who pauses, or a crowd at rest the moment a run starts, is not drawn (drawn at
-    once, the robot lost runs to people who were about to walk; docs/results.md)."""
+    once, the robot lost runs to people who were about to walk;
+    docs/experiments/2026-11-29-standing-map.md)."""
 
     def __post_init__(self):
         validate_fields(self, {"standing": dict(low=0.0),

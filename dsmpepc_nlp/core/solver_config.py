@@ -76,7 +76,7 @@ class MultistartSettings:
     is multimodal: the NLP only runs from the best of them)."""
     n_solved: int = 3
     """Starts the NLP runs from (the warm start, then the best distinct others); fewer lost
-    BARN worlds (docs/design.md, "Pass 8")."""
+    BARN worlds (docs/experiments/2026-11-23-screen-beside-the-warm-solve.md)."""
     distinct: float = 0.05
     """Two starts closer than this share of the box (max norm) count as one."""
     soft_turn: float = 0.6
@@ -100,7 +100,8 @@ class PolishSettings:
     rounds: int = 8
     """Rounds of the pattern search: the best candidate's 24 neighbours (a step of ``step``
     along one variable, or along all four at once; share of each range) are costed exactly and
-    the best kept, then the step halves; 0 turns the polish off (docs/design.md, "Pass 6")."""
+    the best kept, then the step halves; 0 turns the polish off
+    (docs/experiments/2026-11-23-a-polish-of-half-the-size.md)."""
     step: float = 0.04
     """First step, as a share of each variable's range."""
     starts: int = 5
@@ -108,13 +109,13 @@ class PolishSettings:
     margin: float = 1.0
     """Candidates whose exact cost trails the best one's by more than this are not polished
     (``inf``: every one of the ``starts``): no polish gain measured ever came near it
-    (docs/design.md, "Pass 6")."""
+    (docs/experiments/2026-11-23-a-polish-of-half-the-size.md)."""
     scouts: int = 11
     """Distinct candidates after the ``starts`` (the same order and margin) walked only
     ``scout_rounds`` rounds, in one batch, before the best ``promoted`` of them walk the rest
     with the others (0: none). On the hall's cross-check cycles the exact best lay next to a
     candidate ranked 6th to 16th in 22 of 150 plans, so 5 + 11 seeds reach them all
-    (docs/design.md, "Scouts")."""
+    (docs/experiments/2026-11-29-scouts-in-the-polish.md)."""
     scout_rounds: int = 2
     """Rounds every scout walks before the best are promoted: in 17 of those 22 plans the
     scout that won already led the scouts after two rounds."""
@@ -212,7 +213,8 @@ class SolverConfig:
         On 4 variables it needs no barrier and no per-call ``nlpsol`` overhead; its ``tol`` is
         the predicted decrease counted as converged (1e-3, against the 0.01 cost tolerance). The
         polish starts from the 3 best candidates instead of 5: two fifths of the polish saved
-        for about the same plans (docs/design.md, "Pass 6"). ``changes`` replace whole settings.
+        for about the same plans (docs/experiments/2026-11-23-a-polish-of-half-the-size.md).
+        ``changes`` replace whole settings.
         """
         changes.setdefault("local", LocalSolverSettings(tol=1e-3))
         changes.setdefault("polish", PolishSettings(starts=3))

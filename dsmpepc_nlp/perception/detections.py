@@ -170,7 +170,8 @@ class TrackerConfig:
     Our choice, on CrowdNav circle crossing's tuning cases (``--seed 1``, 40 cases,
     ``tracked``): 0.725 at 0, 0.80 at 1, 0.825 at 2; held out (``--seed 0``, 50 cases each)
     circle 0.66 -> 0.80, square 0.80 -> 0.80, at-fault collisions 0.22 -> 0.02 and
-    0.08 -> 0.02, time to goal about 1.5 s longer (docs/experiments, 2026-12-06)."""
+    0.08 -> 0.02, time to goal about 1.5 s longer
+    (docs/experiments/2026-12-06-inflated-tracks.md)."""
 
     def __post_init__(self):
         validate_fields(self, {

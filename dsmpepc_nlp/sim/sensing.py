@@ -195,8 +195,8 @@ PROFILE_TRACKER = TrackerConfig(confirm_hits=2)
 """The built-in profiles' tracker: a track is confirmed after 2 detections in a row, not the
 tracker's default 3. The simulated detector reports once a control period (0.2-0.25 s), so 3
 hits kept a person out of the plan for 0.5-0.75 s; chosen on CrowdNav circle crossing's tuning
-cases (``--seed 1``, 80 cases, ``tracked``: 19 won, 10 lost against 3; docs/experiments,
-2026-12-06)."""
+cases (``--seed 1``, 80 cases, ``tracked``: 19 won, 10 lost against 3;
+docs/experiments/2026-12-06-sensing-profiles.md)."""
 
 BUILTIN_PROFILES = {
     "oracle": SensingProfile("oracle"),

@@ -17,8 +17,8 @@ for each figure (default, fast and sampler medians, default p95, the exact cost 
 each planner's time outside and inside its solver's runs and its iterations a solve), both
 sides' medians over the runs, the ratio of those medians, and the pairs' ratios (this / base):
 median, smallest, largest.
-Each side runs at its own defaults. How docs/results.md's "against the code the issue was filed
-on" table was measured.
+Each side runs at its own defaults. How the table of
+docs/experiments/2026-11-28-plan-time-against-the-issue-code.md was measured.
 
 ``--iterations`` times the IPOPT solves alone instead: each run is a fresh process of
 :data:`ITERATION_PROGRAM` (the same program on both sides, using only what every revision since

@@ -2,9 +2,10 @@
 revision, counted by valgrind's callgrind: repeatable where wall time on a shared machine is not.
 
 Wall time a plan moves by 0.3 between runs of the same two commits on this machine
-(docs/results.md), so a 5 % change in what one IPOPT iteration computes cannot be read from
-``tools/dev/bench_pairs.py``. Callgrind counts the instructions executed instead, the same count
-for the same binary and inputs whatever else the machine runs. This script checks ``BASE`` out
+(docs/experiments/2026-11-28-docking-along-the-laws-curves.md), so a 5 % change in what one
+IPOPT iteration computes cannot be read from ``tools/dev/bench_pairs.py``. Callgrind counts the
+instructions executed instead, the same count for the same binary and inputs whatever else the
+machine runs. This script checks ``BASE`` out
 into a temporary git worktree, then for each side (``PYTHONPATH`` the worktree or this
 checkout, run from a folder outside both) runs :data:`PROGRAM` once plainly (it compiles what
 the side's cache lacks) and once under ``valgrind --tool=callgrind``, collecting only inside
@@ -18,8 +19,9 @@ first ``--cycles`` cycles (docking off) with a default planner: the solves' call
     callgrind_annotate /tmp/ci/base.callgrind; callgrind_annotate /tmp/ci/this.callgrind
 
 With ``--out`` the two callgrind files are kept, so that ``callgrind_annotate`` can say where
-each side's instructions go, function by function (how docs/results.md splits what is left
-between ``pow`` and the drivers).
+each side's instructions go, function by function (how
+docs/experiments/2026-11-28-a-cheaper-graph-an-iteration.md splits what is left between ``pow``
+and the drivers).
 
 It prints, per side, the calls and instructions a call of the cost (F) and of the cost with
 its gradient (G), and the ratios this / base. valgrind must be installed (Debian:

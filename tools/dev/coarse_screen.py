@@ -1,9 +1,10 @@
 """A coarser rollout as the NLP screen's ranking: what a point costs, and what the ranking loses.
 
-docs/design.md ("The cross-check's states, the screen's size and cheaper starts") found that only
-a denser screen closes the cross-check's misses, and that a dense screen of exact points costs
-too much of the plan; it named a screen several times cheaper a point (rank by a coarser cost,
-cost exactly only the best) as what would close the target. This tool measures that idea.
+docs/experiments/2026-11-28-univ-wandering-and-crosscheck-states.md ("The cross-check's states, the
+screen's size and cheaper starts") found that only a denser screen closes the cross-check's misses,
+and that a dense screen of exact points costs too much of the plan; it named a screen several times
+cheaper a point (rank by a coarser cost, cost exactly only the best) as what would close the target.
+This tool measures that idea.
 
 It replays the sampling episode of ``dsmpepc crosscheck SCENARIO`` (seed 0, DS-MPEPC, the
 product's defaults), and at every ``--every``-th cycle costs the same ``--points`` box points

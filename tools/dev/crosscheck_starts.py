@@ -25,16 +25,16 @@ cheapest distinct ends (solved or screened) as named starts, unchanged in the ne
 ``--walk-ranks K`` records every polish walk's exact cost after each of its rounds and prints in
 how many plans the best walk came from a seed ranked after the K-th (cheapest first) and beat the
 first K walks by more than 0.01, the ranks of those seeds, and after which round each of them
-already led the walks ranked after the K-th (docs/design.md, "Scouts": with 16 seeds and no scouts,
-how many rounds tell which low-ranked seed is worth walking).
+already led the walks ranked after the K-th (docs/experiments/2026-11-29-scouts-in-the-polish.md:
+with 16 seeds and no scouts, how many rounds tell which low-ranked seed is worth walking).
 
 ``--time`` also plans every cycle with the default NLP beside it and prints both plan-time
 medians and their ratio (the same process, alternating cycle by cycle). ``--time-episodes``
 times whole passes over the cycles instead, the setting's NLP (its screen and solves; not
 ``--extra``, ``--oracle``, ``--memory`` or ``--rolling``) and the default's, twice, each
-first once (the figures of docs/design.md and docs/benchmarks.md were timed with the setting
-first both times); on the hall the two ways disagree (a 1024-point screen 1.97x cycle by
-cycle, 1.1-1.3x by passes), so both are printed.
+first once (the figures of docs/experiments/2026-11-28-univ-wandering-and-crosscheck-states.md
+and docs/benchmarks.md were timed with the setting first both times); on the hall the two ways
+disagree (a 1024-point screen 1.97x cycle by cycle, 1.1-1.3x by passes), so both are printed.
 """
 
 from __future__ import annotations

@@ -17,8 +17,8 @@ last resort made (status ``clearing``: it acted, and the robot was struck all th
 The configuration is the one each episode logged; a field it does not name takes today's
 default, so a run made before the last resort (``stall.doomed_below``) replays its own plans
 only with ``--set stall.doomed_below=0`` (``replayed`` says whether it did).
-docs/results.md, "A last resort for a doomed plan", counted 67 of square invisible's 71 tuning
-collisions so.
+docs/experiments/2026-11-29-last-resort-for-a-doomed-plan.md counted 67 of square invisible's 71
+tuning collisions so.
 """
 
 from __future__ import annotations

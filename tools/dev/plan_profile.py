@@ -11,8 +11,8 @@ cost of the cheapest of the stall ladder's turns in place (turn, then the law; `
 whether the ladder offers them then or not; with ``--set stall.judge_beyond=T`` also the plan's
 and the cheapest turn's costs and arrival estimates over the longer horizon, ``judged``), and
 the speed the robot then drove at. It is how
-docs/results.md reads a stall where every plan creeps first and speeds up late, each next plan
-putting the burst off::
+docs/experiments/2026-11-29-square-invisible-stalls.md reads a stall where every plan creeps first
+and speeds up late, each next plan putting the burst off::
 
     python tools/dev/plan_profile.py --scene square --seed 0 --episode 385 --at 20 20.5 21
     python tools/dev/plan_profile.py --scene square --seed 0 --episode 385 --at 20 \\

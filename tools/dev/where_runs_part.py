@@ -4,8 +4,9 @@ Replays each crowd episode (``dsmpepc benchmark crowd``'s episode ``k`` of ``--s
 the product's defaults changed by ``--a`` and once changed by ``--b`` (``NAME=VALUE`` each, as
 the benchmarks' ``--set``), records every plan's message, and prints both outcomes, the first
 state at which the robot's two paths differ, and the message of the plan each run made just
-before it: the decision the two configurations took differently. This is how docs/results.md
-traced univ's changed episodes to the plans that changed them::
+before it: the decision the two configurations took differently. This is how
+docs/experiments/2026-11-28-docking-within-the-goals-region.md traced univ's changed episodes to
+the plans that changed them::
 
     python tools/dev/where_runs_part.py --data DIR --scene univ --episodes 9 16 46 44 \\
         --a docking.region_points=0

@@ -3,7 +3,7 @@
 The law turns only while it drives forward (its turn rate is the curvature times the speed),
 so a robot that stands facing a person just ahead has no trajectory of its own that does not
 first close the gap: every one costs more than standing, and the robot waits for as long as the
-person stands (docs/results.md, "CrowdNav's stalls are a trap of the control law"). In the
+person stands (docs/experiments/2026-11-25-two-more-failure-classes.md). In the
 spirit of Nav2's back-up recovery, when the chosen plan would stand and the stall ladder is at
 ``StallConfig.back_up_level`` or above (1 by default: stalled), or the robot expects to be
 struck where the plan leaves it (``StallConfig.back_up_threat``), this rung sets a few reverse

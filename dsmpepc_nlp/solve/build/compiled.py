@@ -81,7 +81,8 @@ def problem_functions(cost: ca.Function, fd_step=None, hessian="differences") ->
 
 
 COMPILE_FLAGS = ("-O2", "-fno-semantic-interposition", "-fno-math-errno")
-"""How the generated C is compiled (the measurements: docs/design.md, "Pass 9"):
+"""How the generated C is compiled (the measurements:
+docs/experiments/2026-11-23-what-a-compiled-call-spends.md):
 
 - ``-O2``: shorter calls than ``-O1`` for a longer compile;
 - ``-fno-semantic-interposition``: the file's own small helpers (``casadi_sq``,

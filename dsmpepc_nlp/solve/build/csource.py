@@ -120,10 +120,10 @@ _FUNCTION_HEAD = re.compile(r"^static int casadi_f\d+\(const casadi_real\*\* arg
 def lighten(source: str, lines: int = LONG_FUNCTION_LINES) -> str:
     """``source`` with GCC's ``optimize("O1")`` on every generated function longer than
     ``lines``: the MX-level drivers of F, G, H and the adjoint (long runs of calls and copies)
-    took most of ``-O2``'s compile time for little of a call's (docs/design.md, "Pass 12"); the SX
-    pieces, where the arithmetic is, stay at ``-O2``. Without
-    reassociation or contraction both levels round alike, so the outputs are the same bits.
-    Other compilers ignore the attribute."""
+    took most of ``-O2``'s compile time for little of a call's
+    (docs/experiments/2026-11-24-compile-per-structure.md); the SX pieces, where the arithmetic
+    is, stay at ``-O2``. Without reassociation or contraction both levels round alike, so the
+    outputs are the same bits. Other compilers ignore the attribute."""
     out, position = [], 0
     for match in _FUNCTION_HEAD.finditer(source):
         end = source.find("\n}", match.start())

@@ -59,17 +59,18 @@ def ipopt_options(solver: SolverConfig, warm: bool) -> dict:
                     "ipopt.mu_strategy": "adaptive",
                     # The probing (Mehrotra) barrier oracle: fewer iterations than the default
                     # quality function on these 4-variable problems, at an equal or lower exact
-                    # cost (docs/design.md, "this pass").
+                    # cost (docs/experiments/2026-11-23-compiled-box-qp-and-probing-oracle.md).
                     "ipopt.mu_oracle": "probing",
                     # Second-order corrections repair constraint violations; with bounds
                     # alone each rejected step paid for them in cost evaluations, and
-                    # gradient scaling one gradient per solve. Both leave
-                    # every iterate as it was (docs/design.md, "Pass 4").
+                    # gradient scaling one gradient per solve. Both leave every iterate as it
+                    # was (docs/experiments/2026-11-23-ipopt-options-and-ray-samples.md).
                     "ipopt.max_soc": 0,
                     "ipopt.nlp_scaling_method": "none",
                     # The limited-memory Hessian's augmented system solved as one extended
                     # system instead of by Sherman-Morrison backsolves: the same steps to
-                    # rounding, less of IPOPT's own time per solve (docs/design.md, "Pass 5").
+                    # rounding, less of IPOPT's own time per solve
+                    # (docs/experiments/2026-11-23-ipopt-on-two-threads-and-pose-mask.md).
                     "ipopt.limited_memory_aug_solver": "extended"})
     if solver.local.hessian == "quasi-newton":
         options["ipopt.hessian_approximation"] = "limited-memory"

@@ -4,9 +4,10 @@ After the solves, the best distinct candidates (solved or screened, by exact cos
 walked on a grid: a round costs the 24 neighbours of the walk's point (a step along one
 variable, or along all four at once) in one exact batch, keeps the best if it is better, and
 halves the step. It reaches basins next to the candidates that the solves stopped short of, and
-the exact optimum where the smooth one is near, not at, it (docs/design.md, "Pass 6"). The
-candidates after those (scouts) walk a round or two, and the cheapest of them walk on: the exact
-best often lies next to a candidate ranked below the first few (docs/design.md, "Scouts").
+the exact optimum where the smooth one is near, not at, it
+(docs/experiments/2026-11-23-a-polish-of-half-the-size.md). The candidates after those (scouts)
+walk a round or two, and the cheapest of them walk on: the exact best often lies next to a
+candidate ranked below the first few (docs/experiments/2026-11-29-scouts-in-the-polish.md).
 
 A walk depends only on its seed and every row is costed as it would be alone, so a walk ends
 the same wherever its rounds run: ahead, on the thread the solves leave idle
@@ -32,8 +33,8 @@ NEIGHBOURS = np.array([d for d in itertools.product((-1.0, 0.0, 1.0), repeat=4)
                        if sum(map(abs, d)) in (1, 4)])
 """The 24 neighbours of a point on the 4-D grid: the 8 steps along one variable and the 16
 corners (a step along all four). The other 56 grid neighbours (two or three variables at once)
-bought nothing the cross-check could see for 2.4 times the exact trajectories (docs/design.md,
-"Pass 6")."""
+bought nothing the cross-check could see for 2.4 times the exact trajectories
+(docs/experiments/2026-11-23-a-polish-of-half-the-size.md)."""
 
 
 STAGE = "the polish"
@@ -174,8 +175,9 @@ class Polish:
         """Every walk's remaining rounds. With several walks left and ``solve_threads``
         above 1, the walks are shared out over the threads (most rounds left first, each to
         the least loaded thread), each thread running its own walks' rounds on its core: a
-        round of 24 rows is too small to share one batch over the cores (docs/design.md,
-        "Pass 7"), two walks side by side are not."""
+        round of 24 rows is too small to share one batch over the cores
+        (docs/experiments/2026-11-23-what-a-compiled-call-spends.md), two walks side by side
+        are not."""
         rounds = self.settings.rounds
         left = [w for w in walks if w.rounds < rounds]
         n_threads = min(self.solver.parallel.solve_threads, len(left))

@@ -78,7 +78,7 @@ def ray_samples(config: PlannerConfig, sizes: GraphSizes) -> int:
     (gap <= 0), so samples a radius apart put at least two in contact: no wall is skipped,
     and the first crossing is interpolated between samples a radius apart. (A ray that only
     grazes a wall's inflated edge is missed at any finite count.) More samples buy no accuracy
-    and cost gradient time (docs/design.md).
+    and cost gradient time (docs/experiments/2026-11-23-ipopt-options-and-ray-samples.md).
     """
     if sizes.ray_samples is not None:
         return sizes.ray_samples

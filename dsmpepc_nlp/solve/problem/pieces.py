@@ -50,7 +50,7 @@ def symbolic(config, smoothing):
 def piece(name, inputs, outputs, fixed, positions):
     """A SX piece of the graph; with ``fixed``, its inputs at ``positions`` (parameters: they
     never depend on z) are marked not differentiable, so that a gradient in z does not carry
-    their adjoints through every call (docs/design.md, "Pass 12")."""
+    their adjoints through every call (docs/experiments/2026-11-24-compile-per-structure.md)."""
     if not fixed:
         return ca.Function(name, inputs, outputs)
     flags = [i not in positions for i in range(len(inputs))]
