@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -130,19 +131,25 @@ class Evaluator:
 
     def evaluate_within(self, z, deadline=None, chunk: int = 512, stage: str = "") -> Evaluation:
         """:meth:`evaluate` of the rows of ``z`` costed before ``deadline`` (a
-        :class:`~dsmpepc_nlp.core.deadline.Deadline`; None: every row, in one batch): chunks of
-        ``chunk`` rows, the first always, the next only while time is left (``stage`` is
-        recorded as cut when rows are left). Each row costs what it would alone. The compiled
-        kernel only: the numpy path costs every row in one batch."""
+        :class:`~dsmpepc_nlp.core.deadline.Deadline`; None: every row, in one batch): a first
+        chunk of ``chunk`` rows always, then, while time is left, as many rows as the first
+        chunk's pace says fit in four fifths of it (at least ``chunk``), so that a plan with
+        time to spare costs two batches, not many (``stage`` is recorded as cut when rows are
+        left). Each row costs what it would alone. The compiled kernel only: the numpy path
+        costs every row in one batch."""
         z = _as_batch(z)
         if deadline is None or not math.isfinite(deadline.seconds) or len(z) <= chunk \
                 or exact.kernel() is None:
             return self.evaluate(z)
+        began = time.perf_counter()
         parts = [self._cost(z[:chunk], False)]
-        for first in range(chunk, len(z), chunk):
-            if not deadline.check(stage):
-                break
-            parts.append(self._cost(z[first:first + chunk], False))
+        pace = (time.perf_counter() - began) / chunk        # seconds a row
+        first = chunk
+        while first < len(z) and deadline.check(stage):
+            fits = int(0.8 * deadline.left() / pace) if pace > 0.0 else len(z)
+            rows = max(chunk, fits)
+            parts.append(self._cost(z[first:first + rows], False))
+            first += rows
         if any(part._raw is None for part in parts):    # a chunk out of the kernel's reach
             return self.evaluate(np.vstack([part.z for part in parts]))
         return _Batch.joined(parts).evaluation()
