@@ -80,10 +80,11 @@ def test_a_large_look_up_reads_back_by_index_and_a_larger_batch_is_costed_anew()
 
 @pytest.mark.parametrize("preset", [PlannerConfig, PlannerConfig.paper])
 def test_moves_the_law_cannot_make_cost_on_the_kernel_as_the_reference_does(preset, monkeypatch):
-    """Dodges and turns in place (never reversing, never above v_limit) are costed by the
-    compiled kernel as given; reverses by the numpy reference; together, every breakdown field
-    as the reference gives it, row for row."""
-    from dsmpepc_nlp.core.control_law import stacked
+    """Reverses, dodges and turns in place (never above v_limit) are costed by the compiled
+    kernel as given; a trajectory faster than v_limit (the cycle's culling would not hold) by
+    the numpy reference; together, every breakdown field as the reference gives it, row for
+    row."""
+    from dsmpepc_nlp.core.control_law import Trajectory, stacked
     from dsmpepc_nlp.core.exact_cost import evaluate
     from dsmpepc_nlp.core.world import OccupancyGrid
     from dsmpepc_nlp.solve.behaviours import docking
@@ -103,9 +104,13 @@ def test_moves_the_law_cannot_make_cost_on_the_kernel_as_the_reference_does(pres
     evaluator = Evaluator(Cycle.prepare(state, world, goal, config))
     forward = stacked([dodge_trajectories(state, config),
                        docking.turn_in_place(state, config, 1.0)])
-    batch = stacked([back_up_trajectories(state, PlannerConfig()), forward])  # (the product's)
+    reverses = back_up_trajectories(state, PlannerConfig())     # (the product's)
+    one = forward[0]
+    too_fast = Trajectory(one.z, one.poses, one.v * 10.0, one.omega, one.target)
+    batch = stacked([reverses, too_fast, forward])
     kernel_rows = exact.given_in_reach(batch, evaluator.cycle)
-    assert np.any(kernel_rows) and not np.all(kernel_rows)      # both paths run
+    assert np.all(batch.v[kernel_rows] <= config.robot.v_limit) and np.any(batch.v < 0.0)
+    assert kernel_rows.tolist() == [True] * len(reverses.z) + [False] + [True] * len(forward.z)
     calls = []
     given = exact.cost_given
     monkeypatch.setattr(exact, "cost_given", lambda t, *a: calls.append(len(t.z)) or given(t, *a))

@@ -235,10 +235,8 @@ def cost_given(trajectories: Trajectory, cycle, module, parallel_rows: int = 64)
 
 def given_in_reach(trajectories: Trajectory, cycle) -> np.ndarray:
     """Which of ``trajectories`` (a batch) the kernel may cost as given (bool, (n,)): on the
-    cycle's horizon, finite, never faster than ``v_limit`` (:func:`inside_reach` for given
-    trajectories) and never reversing. The kernel was written for the law, which never
-    reverses: a reverse's survivability differs from the numpy reference's by up to 1 %
-    (a dodge's or a turn's agrees to the last bits), so reverses are the reference's."""
+    cycle's horizon, finite, and never faster than ``v_limit`` either way (:func:`inside_reach`
+    for given trajectories: the cycle's culling of far objects rests on it)."""
     n_steps = cycle.config.horizon.n_steps
     n = len(trajectories.z)
     if trajectories.v.shape != (n, n_steps) or trajectories.poses.shape != (n, n_steps + 1, 3):
@@ -247,8 +245,7 @@ def given_in_reach(trajectories: Trajectory, cycle) -> np.ndarray:
               & np.all(np.isfinite(trajectories.poses), axis=(1, 2))
               & np.all(np.isfinite(trajectories.omega), axis=1)
               & np.all(np.isfinite(trajectories.target), axis=1))
-    speeds = trajectories.v
-    return finite & np.all((speeds >= 0.0) & (speeds <= cycle.config.robot.v_limit), axis=1)
+    return finite & np.all(np.abs(trajectories.v) <= cycle.config.robot.v_limit, axis=1)
 
 
 def _run(module, cycle, z, poses, v, omega, target, survival, out, given, parallel_rows):

@@ -127,7 +127,10 @@ def static_pose(sdf, p, fp, pts, cos_h, sin_h, speed):
         d = min(d, inner - fp[c, 2])
     inv = 0.0
     if p[ANTICIPATORY] != 0.0 and d < p[NEAR_STATIC]:
-        inv = static_inverse_ttc(sdf, p, fp, pts, cos_h, sin_h, speed)
+        if speed < 0.0:     # along the direction of travel: backwards for a reverse
+            inv = static_inverse_ttc(sdf, p, fp, pts, -cos_h, -sin_h, -speed)
+        else:
+            inv = static_inverse_ttc(sdf, p, fp, pts, cos_h, sin_h, speed)
     return d, inv
 
 
