@@ -34,22 +34,35 @@ or seconds; unset or ``auto``, :data:`BUDGET_SHARE` of the period. The test suit
 deadline give their budgets themselves)."""
 
 
-def _auto_seconds(period: float) -> float:
-    """What ``"auto"`` means now (:data:`BUDGET_VARIABLE`), in seconds; InputError naming the
-    variable for a value that is not a budget."""
-    text = os.environ.get(BUDGET_VARIABLE, AUTO).strip().lower()
-    if text == AUTO:
-        return min(BUDGET_SHARE * float(period), MAX_BUDGET)
-    if text == "none":
-        return math.inf
+BUDGET_TEXT = "auto, none or a number of seconds > 0"
+"""What a budget written as text (the command line's, :data:`BUDGET_VARIABLE`'s) may be."""
+
+
+def budget_from_text(text: str):
+    """A budget written as text: ``"auto"``, None for ``none``, or seconds > 0; ValueError for
+    anything else (:data:`BUDGET_TEXT`)."""
+    word = str(text).strip().lower()
+    if word in (AUTO, "none"):
+        return None if word == "none" else AUTO
     try:
-        seconds = float(text)
+        seconds = float(word)
     except ValueError:
         seconds = math.nan
     if not seconds > 0.0:
-        raise InputError(f"${BUDGET_VARIABLE} = {text!r}: must be auto, none or a number of "
-                         "seconds > 0")
+        raise ValueError(f"{text!r}: must be {BUDGET_TEXT}")
     return seconds
+
+
+def _auto_seconds(period: float) -> float:
+    """What ``"auto"`` means now (:data:`BUDGET_VARIABLE`), in seconds; InputError naming the
+    variable for a value that is not a budget."""
+    try:
+        budget = budget_from_text(os.environ.get(BUDGET_VARIABLE, AUTO))
+    except ValueError as error:
+        raise InputError(f"${BUDGET_VARIABLE} = {error}") from None
+    if budget == AUTO:
+        return min(BUDGET_SHARE * float(period), MAX_BUDGET)
+    return math.inf if budget is None else budget
 
 
 def budget_seconds(budget, period: float) -> float:
@@ -131,4 +144,4 @@ class Deadline:
 
 
 __all__ = ["AUTO", "BUDGET_ALLOWED", "BUDGET_SHARE", "BUDGET_VARIABLE", "MAX_BUDGET", "Deadline",
-           "budget_seconds", "is_budget"]
+           "budget_from_text", "budget_seconds", "is_budget"]

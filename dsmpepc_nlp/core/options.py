@@ -10,6 +10,8 @@ from __future__ import annotations
 import argparse
 import math
 
+from .deadline import budget_from_text
+
 
 def integer(low: int, high: int | None = None):
     """An argparse ``type``: an integer in ``[low, high]`` (no upper bound when None)."""
@@ -60,14 +62,8 @@ nonnegative = integer(0)
 def time_budget(text: str):
     """An argparse ``type`` for a plan's time budget: ``auto``, ``none`` (no deadline) or
     seconds > 0 (``SolverConfig.time_budget``)."""
-    if text.strip().lower() in ("auto", "none"):
-        return None if text.strip().lower() == "none" else "auto"
     try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not value > 0.0:
-        raise argparse.ArgumentTypeError(f"{text!r}: must be auto, none or a number of "
-                                         "seconds > 0")
-    return value
+        return budget_from_text(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
