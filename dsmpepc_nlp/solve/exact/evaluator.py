@@ -226,7 +226,7 @@ rows are indexed by their bytes (a sampler's thousands of rows against a screen'
 
 def _scattered(n: int, parts) -> CostBreakdown:
     """One breakdown of ``n`` rows from ``parts``: ``(rows, breakdown)`` pairs, ``rows`` a
-    boolean mask, each breakdown holding its rows in order."""
+    boolean mask or a slice, each breakdown holding its rows in order."""
     def place(read):
         first = np.asarray(read(parts[0][1]))
         out = np.empty((n, *first.shape[1:]), dtype=first.dtype)
@@ -308,11 +308,6 @@ def _evaluate_numpy(z, cycle: Cycle, pair_budget: int) -> Evaluation:
     chunk = max(1, pair_budget // per_row)
     if len(z) <= chunk:
         return Evaluation(z, trajectories, evaluate(trajectories, world, goal, config))
-    parts = [evaluate(trajectories[i:i + chunk], world, goal, config)
+    parts = [(slice(i, i + chunk), evaluate(trajectories[i:i + chunk], world, goal, config))
              for i in range(0, len(z), chunk)]
-    costs = CostBreakdown(
-        np.concatenate([p.total for p in parts]),
-        {name: np.concatenate([p.terms[name] for p in parts]) for name in parts[0].terms},
-        *(np.concatenate([getattr(p, f) for p in parts])
-          for f in ("survivability", "min_distance", "ttg", "ttc_terminal")))
-    return Evaluation(z, trajectories, costs)
+    return Evaluation(z, trajectories, _scattered(len(z), parts))
