@@ -99,7 +99,7 @@ def test_a_failed_background_compile_is_retried_then_left_to_the_planner(tmp_pat
 def test_paper_preset_is_the_paper_and_the_variants():
     paper = PlannerConfig.paper()
     assert paper.anticipatory_pc and paper.terminal_cost
-    assert not paper.cost.sigma_static_from_map and not paper.cost.ttg_along_nf
+    assert not paper.cost.sigma_static_from_map
     assert paper.cost.sigma_static == 0.1 and paper.cost.s_ttc == 0.5 and paper.cost.a == 0.7
     mpepc = PlannerConfig.paper("mpepc")
     assert not mpepc.anticipatory_pc and not mpepc.terminal_cost

@@ -3,7 +3,6 @@
 import dataclasses
 import json
 import math
-import os
 
 import numpy as np
 import pytest
@@ -238,24 +237,3 @@ def test_the_episode_keeps_the_planners_configuration_and_the_loops_step():
     step = config.robot.accel_limit * config.horizon.dt
     change = np.abs(np.diff(log.states[0, :-1, 3]))       # the last state is the outcome's stop
     assert change[0] == pytest.approx(step) and np.all(change <= step + 1e-12)
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("beyond, outcome", [(0.0, "timeout"), (2.5, "success")])
-def test_a_stalled_robot_judged_beyond_the_horizon_gets_through(beyond, outcome):
-    """Square invisible, test case 210
-    (docs/experiments/2026-11-29-judging-turns-beyond-the-horizon.md): with the turns judged
-    over the horizon only, every plan creeps and
-    puts its passage between two standing people off until the time runs out; judged 2.5 s
-    further once stalled (``judge_level`` 1), a turn in place wins and the robot arrives.
-    Either solver (``fast`` as CI's slow run, or IPOPT). The standing map is off here, as
-    when this was measured: drawing the two people, it lets the fast solver's robot through
-    without the judging, while IPOPT's still times out (the published runs' 210, before and
-    after the standing map)."""
-    solver = os.environ.get("DSMPEPC_CLAIMS_SOLVER", "nlp")
-    settings = cn.CrowdNavSettings(scene="square", setting="invisible", solver=solver,
-                                   overrides=(("stall.judge_beyond", beyond),
-                                              ("stall.judge_level", 1),
-                                              ("prediction.standing_map", 0.0)))
-    log, _ = cn.simulate_episode(settings, "ds-mpepc", 210, 0, record_trajectories=False)
-    assert log.outcomes == [outcome]

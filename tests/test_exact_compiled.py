@@ -1,7 +1,6 @@
 """The compiled exact evaluator agrees with the numpy reference on every output (1e-9).
 
-Random cycles (hypothesis): both variants and both ablations, time to goal along the straight
-line or the navigation function (``ttg_along_nf``), terms switched off, multi-circle
+Random cycles (hypothesis): both variants and both ablations, terms switched off, multi-circle
 footprints, robots of several circles among the obstacles, maps or none, obstacles or none,
 states outside the limits, goals on the robot, and z on every bound of the box (rho -> 0,
 v_max = 0) next to random ones.
@@ -74,7 +73,6 @@ def cycles(draw):
     cost = CostConfig(disabled=disabled, sigma_static=float(rng.uniform(0.05, 0.3)),
                       sigma_dynamic=float(rng.uniform(0.1, 0.4)),
                       s_ttg=draw(st.sampled_from([1e-3, 0.3])),
-                      ttg_along_nf=draw(st.booleans()),
                       sigma_dynamic_growth=draw(st.sampled_from([0.0, 0.16])))
     config = PlannerConfig.variant(variant, robot=robot, cost=cost)
     grid = None
@@ -266,7 +264,7 @@ def test_parameter_vector_names_every_field():
     assert cycle.parameters.shape == (len(PARAMETERS),)
     values = dict(zip(PARAMETERS, cycle.parameters))
     assert values["terminal"] == 0.0 and values["on_terminal"] == 0.0
-    assert values["goal_x"] == 1.0 and values["has_grid"] == 0.0 and values["ttg_nf"] == 0.0
+    assert values["goal_x"] == 1.0 and values["has_grid"] == 0.0
 
 
 def test_build_command_compiles_or_says_numpy(capsys):

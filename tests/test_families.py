@@ -173,15 +173,15 @@ def test_claims_cells_and_settings(tmp_path, capsys):
     keyed apart in the table, with a verdict per cell and setting and a settings figure."""
     out = tmp_path / "map"
     argv = [*CLAIMS_ARGS, "--out", str(out), "--cells", "doorway:0.8:1.5,t-corridor:1.0:1.8",
-            "--set", "s_ttc=0.25,1", "--set", "ttg_along_nf=1"]
+            "--set", "s_ttc=0.25,1", "--set", "sigma_dynamic_growth=0"]
     assert cli.main(argv) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["runs"] == 2 * 2 * 2 and summary["failed"] == 0
     rows = json.loads((out / "claims.json").read_text())["rows"]
     assert {r["scenario"] for r in rows} == {"doorway-door0.80-offset1.50",
                                              "t-corridor-gap1.00-width1.80"}
-    assert {r["params"] for r in rows} == {'{"s_ttc": 0.25, "ttg_along_nf": 1.0}',
-                                           '{"s_ttc": 1.0, "ttg_along_nf": 1.0}'}
+    assert {r["params"] for r in rows} == {'{"s_ttc": 0.25, "sigma_dynamic_growth": 0.0}',
+                                           '{"s_ttc": 1.0, "sigma_dynamic_growth": 0.0}'}
     cells = json.loads((out / "claims_cells.json").read_text())["cells"]
     assert len(cells) == 2 * 2 * 2 and all(c["verdict"] == "both fail" for c in cells)
     assert summary["verdicts"]["sampling"] == {"doorway": {"both fail": 2},
@@ -196,7 +196,7 @@ def test_claims_cells_and_settings(tmp_path, capsys):
     (["--cells", "maze:1:1"], "maze"),
     (["--cells", "doorway:0.05:1.5"], "door = 0.05"),
     (["--set", "s_ttc=-1"], "s_ttc"),
-    (["--set", "ttg_along_nf=2"], "0 (off) or 1"),
+    (["--set", "sigma_static_from_map=2"], "0 (off) or 1"),
     (["--set", "nonsense=1"], "nonsense"),
     (["--axis", "0"], "--axis"),
     (["--axis", "a,b"], "--axis"),

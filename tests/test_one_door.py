@@ -1,16 +1,15 @@
 """One door to the exact cost (issue 67): every stage of ``Planner.plan`` that costs or measures a
 trajectory exactly goes through the plan's :class:`Evaluator` (``planner.last_evaluator``).
 
-The exact cost's entry points are wrapped wherever they are looked up (each module imports them
-by name): the numpy reference ``core.exact_cost.evaluate``, its geometry ``exact_geometry`` and
-``circle_gaps``, the compiled kernel's pass ``solve.exact.loader.kernel_pass`` and the
-evaluator's numpy path ``_evaluate_numpy``. Each call is recorded with the innermost
-:class:`Evaluator` method on the calling thread's stack (None: outside the door). Over plans
-that dock (straight and behind a turn in place), solve the NLP, fall back to the sampler, climb
-the stall ladder's rung (a reverse, a dodge, a turn in place, a turn judged over the longer
-horizon) and reach its last resort (the clearest way, and the passive one), every call must be
-made inside the plan's evaluator, and what the wrappers saw must be what the evaluator counted:
-the rows of the z path (``rows_costed``), the behaviours' trajectories costed
+The exact cost's entry points are wrapped wherever they are looked up (each module imports them by
+name): the numpy reference ``core.exact_cost.evaluate``, its geometry ``exact_geometry`` and
+``circle_gaps``, the compiled kernel's pass ``solve.exact.loader.kernel_pass`` and the evaluator's
+numpy path ``_evaluate_numpy``. Each call is recorded with the innermost :class:`Evaluator` method
+on the calling thread's stack (None: outside the door). Over plans that dock (straight and behind a
+turn in place), solve the NLP, fall back to the sampler, climb the stall ladder's rung (a reverse,
+a dodge, a turn in place) and reach its last resort (the clearest way, and the passive one), every
+call must be made inside the plan's evaluator, and what the wrappers saw must be what the evaluator
+counted: the rows of the z path (``rows_costed``), the behaviours' trajectories costed
 (``trajectories_costed``) and measured (``trajectories_measured``).
 
 Not covered: the Lemma 3 brake (``start_state.braking_plan``) costs its one stop trajectory
@@ -157,10 +156,6 @@ CASES = {
               (5.0, 0.0), {}, "dodging", "dodging"),
     "turn": (stall(turn_level=0), SOLVER, RobotState(0.0, 0.0, math.pi, 0.05, 0.0), World(),
              (3.0, 0.5), {"dock": False}, "turning", "turning in place"),
-    "judged turn": (stall(turn_level=0, judge_level=0, judge_beyond=2.5), SOLVER,
-                    RobotState(0.0, 0.0, math.pi, 0.05, 0.0),
-                    World(obstacles=[DynamicObstacle.pedestrian((1.2, -0.9), (0.0, 0.0), 0.3)]),
-                    (3.0, 0.5), {"dock": False}, "turning", "judged over"),
     "clearest": (PlannerConfig(), SOLVER, DRIVING,
                  World(obstacles=[DynamicObstacle.pedestrian((-1.2, 0.6), (1.0, 0.0), 0.3)]),
                  (0.0, 6.0), {}, "clearing", "the clearest way"),

@@ -78,8 +78,7 @@ def test_every_number_is_a_parameter_not_structure():
     dict(control_law=ControlLawConfig(lam=3.0)),
     dict(smoothing=SmoothingConfig.exact()),
     dict(cost=CostConfig(disabled=("heading",))),
-    dict(cost=CostConfig(ttg_along_nf=True)),
-], ids=["steps", "circles", "accel-inf", "lam", "exact", "disabled", "ttg-nf"])
+], ids=["steps", "circles", "accel-inf", "lam", "exact", "disabled"])
 def test_structure_changes_the_key(change):
     base = PlannerConfig()
     assert structure_key(base, SIZES) != structure_key(dataclasses.replace(base, **change),

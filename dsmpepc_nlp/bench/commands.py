@@ -163,7 +163,7 @@ def add_claims(p) -> None:
                         "1.4:12.6), instead of --families/--axis/--axis2")
     p.add_argument("--set", action="append", default=[], metavar="NAME=V1,V2,...",
                    help="replace a PlannerConfig field, as sweep --param (s_ttc=0.25,0.5, "
-                        "robot.v_limit=1.5, ttg_along_nf=1); several values or several --set: "
+                        "robot.v_limit=1.5, stall.levels=0); several values or several --set: "
                         "every combination is a setting run for every cell")
     p.add_argument("--duration", type=options.number(0.0, low_open=True), default=None,
                    help="cap on every episode's length, s (default: the family's)")

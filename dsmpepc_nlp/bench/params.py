@@ -2,7 +2,7 @@
 
 ``sweep --param`` and ``benchmark barn --set`` name fields of :class:`PlannerConfig` the same
 way: ``part.field`` for any part, a bare name for a ``cost`` field; a switch (such as
-``ttg_along_nf``) takes 0 or 1. :func:`parse_params` checks the names and numbers,
+``sigma_static_from_map``) takes 0 or 1. :func:`parse_params` checks the names and numbers,
 :func:`configure` builds the variant with them replaced (the configuration validates the
 values). ``bench --ipopt-option KEY=VALUE`` names IPOPT options the same way
 (:func:`parse_ipopt_options`).

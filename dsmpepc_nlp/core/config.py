@@ -220,14 +220,13 @@ class PlannerConfig:
         if switches is None:
             raise InputError(f"variant = {variant!r}: must be one of {', '.join(VARIANTS)}")
         cost = changes.pop("cost", CostConfig(c_collision=0.1, sigma_static_from_map=False,
-                                              ttg_along_nf=False, sigma_dynamic_growth=0.0))
+                                              sigma_dynamic_growth=0.0))
         changes.setdefault("docking", DockingConfig(arrival_radius=0.0, radius_from_reach=False,
                                                     follow=False, turn_in_place=0.0,
                                                     region_points=0,
                                                     arrival_at_tolerance=False))
         changes.setdefault("stall", StallConfig(levels=0, back_up=0.0, dodge=False,
-                                                  turn_to_goal=0.0, judge_beyond=0.0,
-                                                  judge_sooner=False, doomed_below=0.0,
+                                                  turn_to_goal=0.0, doomed_below=0.0,
                                                   threat_until_arrival=False, passive=False))
         changes.setdefault("prediction", PredictionConfig(standing_map=0.0))
         changes.setdefault("control_law", ControlLawConfig(r_thresh_from_robot=False))

@@ -63,16 +63,6 @@ class CostConfig:
     ``sigma_static_from_map``): a 2-D lidar's localisation on an indoor map (our choice)."""
     ttc_range: float = 8.0
     """Range of the static time-to-collision ray march, m: beyond it 1/TTC = 0 (our choice)."""
-    ttg_along_nf: bool = False
-    """Our extension, not the paper's (default off): measure the terminal time to goal along the
-    navigation function, ``TTG = NF(p_N) / (v_N u . e)`` with ``e`` the unit NF descent
-    direction at the horizon's end, instead of the straight line ``|g - p_N| / (v_N u . g^)``.
-    Why: the straight line measures through walls. Behind a wall it calls a trajectory that
-    drives along the only route 'not approaching the goal' (``C_TTG = 1``, the terminal reward a
-    stop facing free space also earns, docs/method.md section 5.4) and one facing the wall
-    'approaching' it; the NF measures the route the robot will drive, as the progress term does
-    (:func:`~dsmpepc_nlp.core.costs.inverse_ttg_along_nf`). Without a map both are the same."""
-
     def __post_init__(self):
         positive = dict(low=0.0, low_open=True)
         validate_fields(self, {
@@ -92,7 +82,7 @@ class CostConfig:
             "w_action": dict(low=0.0),
             "w_terminal": dict(low=0.0),
         })
-        check_booleans(self, ("ttg_along_nf", "sigma_static_from_map"))
+        check_booleans(self, ("sigma_static_from_map",))
         try:
             disabled = tuple(self.disabled) if not isinstance(self.disabled, str) else None
         except TypeError:

@@ -83,33 +83,6 @@ def inverse_ttg(poses_terminal, v_terminal, goal, ops=NUMPY, smoothing=EXACT):
     return inverse
 
 
-def inverse_ttg_along_nf(nf_terminal, descent_x, descent_y, phi, v_terminal, ops=NUMPY,
-                         smoothing=EXACT, on_goal=None):
-    """Inverse time to goal along the navigation function, 1/s (``CostConfig.ttg_along_nf``).
-
-    Ours, not the paper's: the NF value at the horizon's end (path length to the goal, m) over
-    the terminal speed along the unit NF descent direction ``e``: ``max(v u.e, 0) / NF``; 0 where
-    ``e`` has no length. Without a map (NF Euclidean) this is :func:`inverse_ttg`. Exact: ``inf``
-    where ``on_goal``; ``1e-12`` keeps the graph finite; the smooth clip acts on the ratio.
-    """
-    norm = ops.sqrt(descent_x * descent_x + descent_y * descent_y + 1e-24)
-    along = v_terminal * (ops.cos(phi) * descent_x + ops.sin(phi) * descent_y) / norm
-    inverse = relu(along / (relu(nf_terminal, 0.0, ops) + 1e-12), smoothing.inverse_time, ops)
-    if ops is NUMPY and smoothing.inverse_time == 0 and on_goal is not None:
-        return np.where(on_goal, np.inf, inverse)
-    return inverse
-
-
-def terminal_inverse_ttg(end, v_terminal, goal, nf_terminal, descent, config: PlannerConfig,
-                         ops=NUMPY, smoothing=EXACT, on_goal=None):
-    """The terminal 1/TTG of ``config``: :func:`inverse_ttg` (the paper) or, with
-    ``cost.ttg_along_nf``, :func:`inverse_ttg_along_nf`; ``end`` is ``(x, y, phi)``."""
-    if config.cost.ttg_along_nf:
-        return inverse_ttg_along_nf(nf_terminal, descent[0], descent[1], end[2], v_terminal, ops,
-                                    smoothing, on_goal)
-    return inverse_ttg(end, v_terminal, goal, ops, smoothing)
-
-
 def heading_error(phi, descent_x, descent_y, ops=NUMPY, smoothing=EXACT):
     """Angle between heading ``phi`` and the NF descent direction, rad, in [0, pi].
 

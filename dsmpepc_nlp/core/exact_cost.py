@@ -18,7 +18,7 @@ from .costs import (
     disk_inverse_ttc,
     dynamic_sigma,
     heading_error,
-    terminal_inverse_ttg,
+    inverse_ttg,
 )
 from .errors import InputError
 from .geometry import footprint_points
@@ -196,9 +196,7 @@ def exact_geometry(trajectory: Trajectory, world, goal, config: PlannerConfig) -
     on_goal = np.hypot(end[:, 0] - goal[0], end[:, 1] - goal[1]) <= GOAL_TOLERANCE
     descent[on_goal] = 0.0
     err = heading_error(end[:, 2], descent[:, 0], descent[:, 1])
-    inv_ttg = terminal_inverse_ttg((end[:, 0], end[:, 1], end[:, 2]), trajectory.v[:, -1], goal,
-                                   nf[:, -1, 0], (descent[:, 0], descent[:, 1]), config,
-                                   on_goal=on_goal)
+    inv_ttg = inverse_ttg((end[:, 0], end[:, 1], end[:, 2]), trajectory.v[:, -1], goal)
     inv_term = (_terminal_inverse_ttc(end, world, config, times[-1])
                 if config.terminal_cost else np.zeros(n))
     def per_trajectory(values):

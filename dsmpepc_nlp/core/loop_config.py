@@ -200,28 +200,6 @@ class StallConfig:
     turn_level: int = 1
     """The ladder's level from which ``turn_to_goal`` acts: 1, once stalled for a window; 0,
     on every plan."""
-    judge_beyond: float = 0.0
-    """s (0: off): the turns in place (``turn_to_goal``) are judged against the law's plan (the
-    NLP's or the sampler's) over the horizon lengthened by this much (whole plan periods):
-    each, the plan too, is carried on past the horizon by the docking trajectory to the goal
-    from where it ends, and costed by the exact cost over the longer horizon; the cheapest
-    turn replaces the plan when it is cheaper there (``backup.judge_turns``). Over the horizon
-    itself, a stalled robot's plan that creeps while it turns and goes through a gap in its
-    last second or two carries only part of that passage's risk, so it costs less than a turn
-    that goes through at once, and each next plan puts the passage off again (CrowdNav square
-    invisible's stalls, docs/experiments/2026-11-29-square-invisible-stalls.md). Judged
-    further, both carry the passage. Ours; half the horizon, 2.5 s."""
-    judge_level: int = 3
-    """The ladder's level from which ``judge_beyond`` acts (and not below ``turn_level``):
-    3, the ladder's top by default, where the progress weight can rise no more; 1, once
-    stalled (both measured in
-    docs/experiments/2026-11-29-judging-turns-beyond-the-horizon.md)."""
-    judge_sooner: bool = False
-    """With ``judge_beyond``, a turn replaces the plan only when it is also expected to arrive
-    sooner (``backup.arrival_estimate``: where it first comes within the goal's tolerance over
-    the longer horizon, else the longer horizon's end plus the straight way left at the speed
-    limit), so a turn that is cheaper only by going the long way round a person is not taken.
-    Ours (docs/experiments/2026-11-29-judged-turn-arriving-sooner.md)."""
     doomed_below: float = 0.05
     """The rung's last resort (0 turns it off; it acts with the rung on, ``back_up`` > 0): a
     plan whose survival over the next ``clearance_within`` seconds (the exact cost's ``p^s``;
@@ -255,7 +233,7 @@ class StallConfig:
     contacts at fault (docs/experiments/2026-11-30-passive-safety.md)."""
 
     def __post_init__(self):
-        check_booleans(self, ("dodge", "threat_until_arrival", "judge_sooner", "passive"))
+        check_booleans(self, ("dodge", "threat_until_arrival", "passive"))
         validate_fields(self, {"window": dict(low=0.0, low_open=True),
                                 "min_displacement": dict(low=0.0, low_open=True),
                                 "min_progress": dict(low=0.0),
@@ -264,11 +242,9 @@ class StallConfig:
                                 "back_up_threat": dict(low=0.0, high=1.0),
                                 "dodge_within": dict(low=0.0, low_open=True),
                                 "turn_to_goal": dict(low=0.0, high=math.pi),
-                                "judge_beyond": dict(low=0.0, high=60.0),
                                 "doomed_below": dict(low=0.0, high=1.0),
                                 "clearance_within": dict(low=0.0, low_open=True)})
-        check_integers(self, {"levels": 0, "back_up_level": 0, "turn_level": 0,
-                              "judge_level": 0})
+        check_integers(self, {"levels": 0, "back_up_level": 0, "turn_level": 0})
 
     def progress_gain(self, level: int) -> float:
         """The progress weight's factor at ``level`` (1 at level 0)."""

@@ -8,9 +8,7 @@ cycle, and checks that every replayed plan's z is the logged one (``replayed``).
 ``--at`` time it prints the robot's state, the plan's z, status, exact cost and stall level,
 its speed every 0.4 s and survivability every 0.6 s of the horizon and at its end, the exact
 cost of the cheapest of the stall ladder's turns in place (turn, then the law; ``turn_cost``;
-whether the ladder offers them then or not; with ``--set stall.judge_beyond=T`` also the plan's
-and the cheapest turn's costs and arrival estimates over the longer horizon, ``judged``), and
-the speed the robot then drove at. It is how
+whether the ladder offers them then or not), and the speed the robot then drove at. It is how
 docs/experiments/2026-11-29-square-invisible-stalls.md reads a stall where every plan creeps first
 and speeds up late, each next plan putting the burst off::
 
@@ -36,7 +34,7 @@ from dsmpepc_nlp.bench.crowdnav import SETTINGS, CrowdNavSettings
 from dsmpepc_nlp.bench.crowds import CrowdSettings
 from dsmpepc_nlp.bench.params import named_solver, overrides
 from dsmpepc_nlp.core.exact_cost import evaluate
-from dsmpepc_nlp.solve.behaviours import judge, ways
+from dsmpepc_nlp.solve.behaviours import ways
 from dsmpepc_nlp.solve.planner import Planner
 
 EVERY = 0.4
@@ -54,18 +52,6 @@ def turn_cost(plan, state, goal, cycle) -> float:
     turns = ways.turn_trajectories(plan, state, goal, cycle.config)
     total = evaluate(turns, cycle.world, cycle.goal, cycle.config).total
     return float(np.min(np.where(np.isfinite(total), total, np.inf)))
-
-
-def judged_costs(plan, state, evaluator, tolerance: float) -> dict:
-    """With ``stall.judge_beyond``, what the rung's judging of the turns weighs
-    (:func:`judge.judged`): the plan's and the cheapest turn's exact costs over the longer
-    horizon and their arrival estimates (costed by the plan's ``evaluator``); {} with it off."""
-    if not evaluator.cycle.config.stall.judge_beyond > 0.0:
-        return {}
-    _, total, arrival = judge.judged(plan, state, evaluator, tolerance)
-    best = 1 + int(np.argmin(total[1:]))
-    return {"judged": {"plan_cost": float(total[0]), "turn_cost": float(total[best]),
-                       "plan_arrival": float(arrival[0]), "turn_arrival": float(arrival[best])}}
 
 
 def profile(settings, episode: int, seed: int, times, variant="ds-mpepc"):
@@ -93,7 +79,6 @@ def profile(settings, episode: int, seed: int, times, variant="ds-mpepc"):
                 "survivability": _rounded(plan.cost.survivability, round(SURVIVAL_EVERY / dt)),
                 "survivability_end": round(float(plan.cost.survivability[-1]), 3),
                 "turn_cost": turn_cost(plan, state, goal, planner.last_evaluator.cycle),
-                **judged_costs(plan, state, planner.last_evaluator, tolerance),
                 "next_speed": round(float(log.states[0, k + 1, 3]), 3)}
     plans = [found.get(k, {"time": t, "planned": False}) for k, t in wanted.items()]
     return {"outcome": log.outcomes[0], "time": float(log.outcome_times[0]),

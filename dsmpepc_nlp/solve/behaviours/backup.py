@@ -30,7 +30,6 @@ from ...core.control_law import stacked
 from ..exact.evaluator import Evaluator
 from ..plan import Plan
 from . import docking
-from .judge import LAW_STATUSES, judge_turns
 from .last_resort import clearest, survival_within
 from .ways import (
     Ways,
@@ -96,12 +95,6 @@ def consider(plan: Plan, state, evaluator: Evaluator, level: int,
     # A docked plan already heads for the goal, turning in place first where it must.
     turn = (level >= stall.turn_level and stall.turn_to_goal > 0.0
             and plan.status != "docked")
-    if turn and stall.judge_beyond > 0.0 and plan.status in LAW_STATUSES \
-            and level >= stall.judge_level:
-        judged = judge_turns(plan, state, evaluator, goal_tolerance)
-        if judged is not None:
-            return judged
-        turn = False                    # the turns were judged, over the longer horizon
     sets = ([("reverse", ways.reverses)] if reverse else []) + (
         [("dodge", ways.dodges)] if dodge else []) + (
         [("turn", turn_trajectories(plan, state, cycle.goal, config))] if turn else [])

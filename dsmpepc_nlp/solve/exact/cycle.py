@@ -28,7 +28,7 @@ PARAMETERS = (
     "sigma_dynamic", "a", "s_ttc", "anticipatory", "terminal",
     "nf_grid", "nf_res", "nf_ox", "nf_oy", "goal_x", "goal_y", "goal_tol2",
     *(f"w_{name}" for name in TERM_NAMES), *(f"on_{name}" for name in TERM_NAMES),
-    "cull_floor", "near_static", "goal_tol", "cull_sigmas", "ttg_nf", "sigma_dynamic_growth")
+    "cull_floor", "near_static", "goal_tol", "cull_sigmas", "sigma_dynamic_growth")
 """Names of the kernel's scalar parameters, in the order of its parameter vector: each term of
 the term table (``TERM_NAMES``) has its weight ``w_<term>`` and its switch ``on_<term>``. (The
 term formulas read the cost's numbers by name, from ``kernel.layout.cost_numbers``.)"""
@@ -231,7 +231,7 @@ def parameter_vector(state, goal, config: PlannerConfig, grid, navigation,
         "goal_x": navigation.goal[0], "goal_y": navigation.goal[1],
         "goal_tol2": GOAL_TOLERANCE ** 2, "goal_tol": GOAL_TOLERANCE,
         "cull_floor": cull_floor, "cull_sigmas": cull_sigmas,
-        "near_static": _SIGNIFICANT_BELL * cost.sigma_static, "ttg_nf": cost.ttg_along_nf,
+        "near_static": _SIGNIFICANT_BELL * cost.sigma_static,
         "sigma_dynamic_growth": cost.sigma_dynamic_growth,
     }
     for name, weight, enabled in terms:

@@ -7,8 +7,9 @@ sampler. Behind it, side by side, are the two engines of :func:`evaluate_batch`:
 kernel (:mod:`.exact`) when it is loaded and the z lie inside the reach the cycle's culling
 rests on, and the numpy reference (:func:`~dsmpepc_nlp.core.exact_cost.evaluate`) otherwise;
 they agree to 1e-9 (held by tests). The behaviours' trajectories that no z makes (reverses,
-dodges, turns in place, a brake, docking's turn-then-law splices, the judge's longer horizon)
-are costed by the numpy reference through :meth:`Evaluator.evaluate_trajectories`, and the last
+dodges, turns in place, a brake, docking's turn-then-law splices)
+are costed through :meth:`Evaluator.evaluate_trajectories` (the kernel as given, else the numpy
+reference), and the last
 resort's gaps are measured through :meth:`Evaluator.geometry` and
 :meth:`Evaluator.circle_gaps` (tests/test_one_door.py holds every stage to this door).
 
@@ -28,7 +29,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...core.config import PlannerConfig
 from ...core.control_law import Trajectory, rollout, stacked
 from ...core.exact_cost import CostBreakdown, Geometry, circle_gaps, evaluate, exact_geometry
 from ...core.solver_config import ParallelSettings, SolverConfig
@@ -154,11 +154,9 @@ class Evaluator:
             return self.evaluate(np.vstack([part.z for part in parts]))
         return _Batch.joined(parts).evaluation()
 
-    def evaluate_trajectories(self, trajectories: Trajectory,
-                              config: PlannerConfig | None = None) -> CostBreakdown:
+    def evaluate_trajectories(self, trajectories: Trajectory) -> CostBreakdown:
         """The exact cost of ``trajectories`` (a batch, or one: the breakdown is batched like
-        them) that no z of the law makes, on the cycle's world and goal, with the cycle's
-        config unless ``config`` is given (the judge's longer horizon): the compiled kernel
+        them) that no z of the law makes, on the cycle's world, goal and config: the compiled kernel
         costs them as given (:func:`.loader.cost_given`) on the cycle's horizon when their
         speeds stay within ``[0, v_limit]`` (:func:`.loader.given_in_reach`), else the numpy
         reference. Never kept for reading
@@ -166,8 +164,7 @@ class Evaluator:
         cycle = self.cycle
         single = trajectories.poses.ndim == 2
         batch = stacked([trajectories]) if single else trajectories
-        module = exact.kernel() if self.compiled is not False and config in (None, cycle.config) \
-            else None
+        module = exact.kernel() if self.compiled is not False else None
         kernel = np.zeros(len(batch.z), bool) if module is None \
             else exact.given_in_reach(batch, cycle)
         parts = []
@@ -176,7 +173,7 @@ class Evaluator:
                                                    self.parallel_rows)))
         if not np.all(kernel):
             parts.append((~kernel, evaluate(batch[~kernel], cycle.world, cycle.goal,
-                                            cycle.config if config is None else config)))
+                                            cycle.config)))
         costs = parts[0][1] if len(parts) == 1 else _scattered(len(batch.z), parts)
         self._count("trajectories_costed", trajectories.poses)
         return costs[0] if single else costs

@@ -1,18 +1,17 @@
 """The configuration's numbers as one parameter block of the compiled graph.
 
 A compiled library is keyed by the graph's structure, never by a number a user may tune: the
-weights, widths, limits, gains, step length, footprint circles and smoothing temperatures enter
-the graph as the ``settings`` parameter block (bound once per cycle with the rest of the world),
-so that changing any of them compiles nothing. The two DS-MPEPC switches are 0/1 entries too
+weights, widths, limits, gains, step length, footprint circles and smoothing temperatures enter the
+graph as the ``settings`` parameter block (bound once per cycle with the rest of the world), so
+that changing any of them compiles nothing. The two DS-MPEPC switches are 0/1 entries too
 (``switch.anticipatory_pc`` scales ``a``, ``switch.terminal_cost`` the terminal weight: at 1 the
 same numbers as the switch's form, at 0 exactly MPEPC's), so MPEPC, DS-MPEPC and the ablations
 share one library; the graph then always computes the anticipatory factor and the terminal ray,
 which MPEPC multiplies by 0. What stays structural (and so in the key, :func:`structure`): the
-horizon's step count, the footprint's circle count, ``ttg_along_nf``, the disabled terms, and
-the few values at which a formula takes
-another form (:data:`SPECIAL`: a smoothing temperature of 0 is the exact form; an infinite rate
-limit is no limit; ``lam = 2`` squares the curvature; a footprint circle's offset of 0 leaves
-nothing to rotate).
+horizon's step count, the footprint's circle count, the disabled terms, and the few values at which
+a formula takes another form (:data:`SPECIAL`: a smoothing temperature of 0 is the exact form; an
+infinite rate limit is no limit; ``lam = 2`` squares the curvature; a footprint circle's offset of
+0 leaves nothing to rotate).
 """
 
 from __future__ import annotations
@@ -99,8 +98,8 @@ def structure(config: PlannerConfig, smoothing: SmoothingConfig | None = None) -
                     and (own or not name.startswith("smoothing.")))
     baked = None if own else dataclasses.astuple(smoothing)
     cost = config.cost
-    return ("settings-v2", names(config), config.horizon.n_steps, cost.ttg_along_nf,
-            tuple(cost.disabled), special, baked)
+    return ("settings-v3", names(config), config.horizon.n_steps, tuple(cost.disabled),
+            special, baked)
 
 
 def symbolic(config: PlannerConfig, settings, smoothing: SmoothingConfig | None = None):

@@ -13,7 +13,7 @@ from ...core.costs import (
     collision_probability,
     dynamic_sigma,
     heading_error,
-    terminal_inverse_ttg,
+    inverse_ttg,
 )
 from ...core.smooth import CASADI, is_exact, softmax_objects
 from ...core.terms import TERM_NAMES
@@ -172,8 +172,7 @@ def final_functions(config, sizes, smoothing, fixed=False):
     if not is_exact(smoothing.inverse_time):
         object.__setattr__(ttg_smoothing, "inverse_time",
                            smoothing.inverse_time * config.cost.s_ttg / config.cost.s_ttc)
-    inv_ttg = terminal_inverse_ttg((end[0], end[1], end[2]), vs[-1], goal, nf[-1], descent,
-                                   config, CASADI, ttg_smoothing)
+    inv_ttg = inverse_ttg((end[0], end[1], end[2]), vs[-1], goal, CASADI, ttg_smoothing)
     sigma = ca.DM.ones(n, 1) * config.cost.sigma_static
     total, terms, _ = assemble(distance, inverse, sigma, nf.T, vs, omegas, err, inv_ttg,
                                inv_term, config, smoothing, CASADI, kept=kept)

@@ -16,7 +16,6 @@ from .geometry import (
     descent,
     heading_error,
     inverse_ttg,
-    inverse_ttg_along_nf,
     nf_value,
     object_pose,
     place,
@@ -44,7 +43,6 @@ from .layout import (
     STEPWISE,
     TERMINAL,
     TOTAL_COLUMN,
-    TTG_NF,
     W_FIRST_TERM,
     A,
     cost_numbers,
@@ -141,10 +139,7 @@ def assemble(p, c, nf, poses, vs, omegas, survival, terminal_inv, scratch, out):
     final = survival[n_steps]
     x, y, phi = poses[n_steps, 0], poses[n_steps, 1], poses[n_steps, 2]
     ex, ey = descent(nf, p, x, y)
-    if p[TTG_NF] != 0.0:
-        inv_ttg = inverse_ttg_along_nf(p, nf_prev, ex, ey, x, y, phi, vs[n_steps - 1])
-    else:
-        inv_ttg = inverse_ttg(p, x, y, phi, vs[n_steps - 1])
+    inv_ttg = inverse_ttg(p, x, y, phi, vs[n_steps - 1])
     END_TERMS(EndQuantities(final, heading_error(ex, ey, phi), inv_ttg, terminal_inv), c,
               scratch, 0)
     total = 0.0

@@ -220,16 +220,6 @@ def inverse_ttg(p, x, y, phi, v_terminal):
 
 
 @jit
-def inverse_ttg_along_nf(p, nf_end, ex, ey, x, y, phi, v_terminal):
-    """``costs.inverse_ttg_along_nf`` (exact; on the goal as ``exact_geometry`` marks it)."""
-    if math.hypot(x - p[GOAL_X], y - p[GOAL_Y]) <= p[GOAL_TOL]:
-        return math.inf
-    norm = math.sqrt(ex * ex + ey * ey + 1e-24)
-    along = v_terminal * (math.cos(phi) * ex + math.sin(phi) * ey) / norm
-    return max(along / (max(nf_end, 0.0) + 1e-12), 0.0)
-
-
-@jit
 def terminal_inverse_ttc(p, fp, sdf, centres, radii, velocities, x, y, phi, pts):
     """``exact_cost._terminal_inverse_ttc``: along the terminal heading at v_limit, every circle."""
     cos_h, sin_h = place(fp, x, y, phi, pts)

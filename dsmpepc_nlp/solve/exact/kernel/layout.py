@@ -75,7 +75,6 @@ ON_FIRST_TERM = PARAMETERS.index(f"on_{TERM_NAMES[0]}")  # and so do the switche
 NEAR_STATIC = PARAMETERS.index('near_static')
 GOAL_TOL = PARAMETERS.index('goal_tol')
 CULL_SIGMAS = PARAMETERS.index('cull_sigmas')
-TTG_NF = PARAMETERS.index('ttg_nf')
 SIGMA_DYNAMIC_GROWTH = PARAMETERS.index('sigma_dynamic_growth')
 
 COST_FIELDS = tuple(field.name for field in dataclasses.fields(CostConfig)
