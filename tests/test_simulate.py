@@ -262,6 +262,25 @@ def test_a_configuration_saved_before_a_field_existed_plans_as_it_did_then():
     assert config_from_dict(config_to_dict(PlannerConfig())) == PlannerConfig()
 
 
+def test_a_configuration_saved_with_a_field_since_removed_loads_when_it_was_off():
+    """A saved configuration may hold a switch the package has since removed: off, as every
+    default had it, it is dropped and the episode plans as it did; on, it cannot be replayed
+    and the error names the field and the value."""
+    from dsmpepc_nlp.sim.episode import config_from_dict, config_to_dict
+
+    saved = config_to_dict(PlannerConfig())
+    saved["stall"] |= {"judge_beyond": 0.0, "judge_level": 3, "judge_sooner": False}
+    saved["cost"]["ttg_along_nf"] = False
+    assert config_from_dict(saved) == PlannerConfig()
+    saved["cost"]["ttg_along_nf"] = True
+    with pytest.raises(InputError, match="cost.ttg_along_nf = True was removed"):
+        config_from_dict(saved)
+    saved["cost"]["ttg_along_nf"] = False
+    saved["stall"]["judge_beyond"] = 2.5
+    with pytest.raises(InputError, match="stall.judge_beyond = 2.5"):
+        config_from_dict(saved)
+
+
 def test_load_rejects_other_files(tmp_path):
     bad = tmp_path / "x.npz"
     np.savez(bad, a=np.zeros(2))

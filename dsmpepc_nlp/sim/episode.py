@@ -247,16 +247,34 @@ BEFORE_THEY_WERE = {"stall": {"doomed_below": 0.0, "min_progress": 0.0}}
 they existed (each now on by default): an episode saved then replays its own plans."""
 
 
+REMOVED = {"stall": {"judge_beyond": (0.0,), "judge_level": None, "judge_sooner": (False,)},
+           "cost": {"ttg_along_nf": (False,)}}
+"""Fields a saved configuration may still hold though the package no longer has them, each with
+the values that planned as the package does now (None: any value, a field that acted only with
+another of them): such a field is dropped; another value cannot be replayed."""
+
+
+def _without_removed(name: str, value: dict) -> dict:
+    """``value`` (the saved ``name`` part) without the fields of :data:`REMOVED`; InputError
+    for one whose value planned otherwise than the package can now."""
+    removed = REMOVED.get(name, {})
+    for key, off in removed.items():
+        if key in value and off is not None and value[key] not in off:
+            raise InputError(f"saved configuration: {name}.{key} = {value[key]!r} was "
+                             f"removed from the package; only {off[0]!r} (off) can be replayed")
+    return {k: v for k, v in value.items() if k not in removed}
+
+
 def config_from_dict(data: dict) -> PlannerConfig:
     """Inverse of :func:`config_to_dict`; a field of :data:`BEFORE_THEY_WERE` it lacks is set
-    to its value there, any other to today's default."""
+    to its value there, any other to today's default; a field of :data:`REMOVED` is dropped."""
     parts = {f.name: f.type for f in dataclasses.fields(PlannerConfig)}
     kinds = {name: type(getattr(PlannerConfig(), name)) for name in parts}
     values = {}
     for name, value in data.items():
         if isinstance(value, dict):
             value = {k: float(v) if isinstance(v, str) else v for k, v in value.items()}
-            value = BEFORE_THEY_WERE.get(name, {}) | value
+            value = BEFORE_THEY_WERE.get(name, {}) | _without_removed(name, value)
             values[name] = kinds[name](**value)
         else:
             values[name] = value
