@@ -16,7 +16,7 @@ from dsmpepc_nlp.core.exact_cost import evaluate, exact_geometry
 from dsmpepc_nlp.core.grid import OccupancyGrid
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, World
-from dsmpepc_nlp.solve.behaviours import backup, docking
+from dsmpepc_nlp.solve.behaviours import backup, chain, docking
 from dsmpepc_nlp.solve.behaviours import ways as moves
 from dsmpepc_nlp.solve.exact.cycle import Cycle
 from dsmpepc_nlp.solve.exact.evaluator import Evaluator
@@ -171,7 +171,7 @@ def test_the_dodges_answer_only_a_blow_expected_within_dodge_within(monkeypatch)
                         lambda *a: built.append(1) or original(*a))
     for config, expected in ((on, 1), (soon, 0)):
         built.clear()
-        backup.consider(kept, state, Evaluator(Cycle.prepare(state, head_on, GOAL, config)),
+        chain.recover(kept, state, Evaluator(Cycle.prepare(state, head_on, GOAL, config)),
                         level=0)
         assert len(built) == expected
     behind = World(obstacles=[DynamicObstacle.pedestrian((-1.2, 0.0), (1.3, 0.0), 0.3)])
@@ -227,7 +227,7 @@ def test_switched_off_never_backs_up_and_a_moving_plan_is_kept():
     cycle = Cycle.prepare(state, World(), GOAL, ON)
     moving = Planner(ON, SolverConfig.sampling(n_samples=256)).plan(state, World(), GOAL)
     assert not backup.stands(moving, ON)
-    assert backup.consider(moving, state, Evaluator(cycle), level=3) is None
+    assert chain.recover(moving, state, Evaluator(cycle), level=3) is None
 
 
 def test_a_stalled_robot_facing_away_from_its_goal_turns_in_place_toward_it():
@@ -243,7 +243,7 @@ def test_a_stalled_robot_facing_away_from_its_goal_turns_in_place_toward_it():
         config = monitor.config_for(level)
         plan = Planner(config, solver).plan(state, World(), goal, dock=False)
         cycle = Cycle.prepare(state, World(), goal, config)
-        turned = backup.consider(plan, state, Evaluator(cycle), level)
+        turned = chain.recover(plan, state, Evaluator(cycle), level)
         if level == 0:
             assert turned is None
             continue
@@ -255,7 +255,7 @@ def test_a_stalled_robot_facing_away_from_its_goal_turns_in_place_toward_it():
         assert path_length(turned.trajectory.poses) > 2 * path_length(plan.trajectory.poses)
         off = dataclasses.replace(config, stall=dataclasses.replace(config.stall,
                                                                     turn_to_goal=0.0))
-        kept = backup.consider(plan, state, Evaluator(Cycle.prepare(state, World(), goal, off)),
+        kept = chain.recover(plan, state, Evaluator(Cycle.prepare(state, World(), goal, off)),
                                level)
         assert kept is None or kept.status != "turning"
 

@@ -14,7 +14,7 @@ from dsmpepc_nlp.core.errors import InputError
 from dsmpepc_nlp.core.exact_cost import evaluate, exact_geometry
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import DynamicObstacle, World
-from dsmpepc_nlp.solve.behaviours import backup, last_resort, passive
+from dsmpepc_nlp.solve.behaviours import backup, chain, last_resort, passive
 from dsmpepc_nlp.solve.behaviours import ways as moves
 from dsmpepc_nlp.solve.exact.cycle import Cycle
 from dsmpepc_nlp.solve.exact.evaluator import Evaluator
@@ -163,6 +163,6 @@ def test_a_doomed_plan_that_stays_the_clearest_builds_the_rungs_ways_once(monkey
     assert last_resort.clearest(plan, DRIVING, Evaluator(cycle)) is None
     assert built == {"dodges": 1, "reverses": 1}
     built.update(dodges=0, reverses=0)
-    chosen = backup.consider(plan, DRIVING, Evaluator(cycle), level=0)
+    chosen = chain.recover(plan, DRIVING, Evaluator(cycle), level=0)
     assert chosen is not None and chosen.status == "dodging", chosen    # the cost's way
     assert built == {"dodges": 1, "reverses": 1}

@@ -83,7 +83,7 @@ def test_a_spent_budget_runs_no_solve_and_no_polish_and_says_so(method):
     state, world, goal = _scene()
     plan = planner.plan(state, world, goal, dock=False, time_budget=SPENT)
     assert plan.status == "deadline" and not plan.success
-    assert SOLVES in plan.cut and "the recovery" in plan.cut
+    assert SOLVES in plan.cut and {"the last resort", "the moves"} <= set(plan.cut)
     assert "time budget" in plan.message
     solved = [r for r in plan.starts if r.status != "screened"]
     assert solved and all(r.status == NOT_RUN for r in solved)    # every solve skipped
@@ -132,13 +132,13 @@ def test_deadline_is_a_status_appended_last():
 
 
 def test_a_stage_that_cannot_stop_runs_only_when_the_time_left_covers_its_last_run():
-    """The recovery once took 1 s: with 0.5 s it is skipped (and cut), and what is expected of
-    it shrinks each plan, run or skipped, so one slow run does not keep it off for good."""
+    """The moves once took 1 s: with 0.5 s they are skipped (and cut), and what is expected of
+    them shrinks each plan, run or skipped, so one slow run does not keep them off for good."""
     planner = Planner(PlannerConfig(), SolverConfig.sampling(n_samples=64))
     state, world, goal = _scene()
-    planner._took["the recovery"] = 1.0
+    planner._took["the moves"] = 1.0
     plan = planner.plan(state, world, goal, dock=False, time_budget=0.5)
-    assert "the recovery" in plan.cut
-    assert planner._took["the recovery"] == pytest.approx(0.95)
+    assert "the moves" in plan.cut
+    assert planner._took["the moves"] == pytest.approx(0.95)
     plan = planner.plan(state, world, goal, dock=False, time_budget=None)
-    assert plan.cut == () and planner._took["the recovery"] < 0.95 * 0.95 + 1e-9
+    assert plan.cut == () and planner._took["the moves"] < 0.95 * 0.95 + 1e-9

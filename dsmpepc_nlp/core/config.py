@@ -79,6 +79,10 @@ class RobotConfig:
         return max(math.hypot(cx, cy) + radius for cx, cy, radius in self.footprint)
 
 
+BEHAVIOURS = ("docking", "last-resort", "moves")
+"""The behaviours beyond the optimiser a planner may run (``PlannerConfig.behaviours``; what
+each does: :mod:`dsmpepc_nlp.solve.behaviours.chain`)."""
+
 IROS_RAMP = 1.2
 """IROS 2012's ``r_thresh``, m: the paper's, and the ramp of a robot without a braking limit."""
 
@@ -192,6 +196,12 @@ class PlannerConfig:
     """DS-MPEPC's collision probability with the time-to-collision factor (paper eq. 5)."""
     terminal_cost: bool = True
     """DS-MPEPC's terminal cost on time to goal and time to collision (paper section IV-B)."""
+    behaviours: tuple = BEHAVIOURS
+    """The behaviours beyond the optimiser, in the order they run, each one of
+    :data:`BEHAVIOURS` at most once: ``docking`` instead of the optimiser near a fixed goal,
+    then on the optimiser's plan ``last-resort`` and ``moves``, the first that replaces the
+    plan ending the chain (:mod:`dsmpepc_nlp.solve.behaviours.chain`; each also has its own
+    fields). The paper preset names ``docking`` alone; ``()`` runs the optimiser alone."""
 
     def __post_init__(self):
         expected = {
@@ -204,6 +214,13 @@ class PlannerConfig:
             if not isinstance(getattr(self, name), kind):
                 fail("PlannerConfig", name, getattr(self, name), f"a {kind.__name__}")
         check_booleans(self, ("anticipatory_pc", "terminal_cost"))
+        named = self.behaviours
+        if isinstance(named, str) or not isinstance(named, (tuple, list)) \
+                or any(not isinstance(n, str) or n not in BEHAVIOURS for n in named) \
+                or len(set(named)) != len(named):
+            fail("PlannerConfig", "behaviours", named,
+                 f"a sequence of distinct names among {', '.join(BEHAVIOURS)}")
+        object.__setattr__(self, "behaviours", tuple(named))
         law, robot = self.control_law, self.robot
         if law.r_thresh_from_robot:     # derived on every construction, replace() included
             ramp = (robot.v_limit ** 2 / robot.accel_limit if math.isfinite(robot.accel_limit)
@@ -230,6 +247,7 @@ class PlannerConfig:
                                                   threat_until_arrival=False, passive=False))
         changes.setdefault("prediction", PredictionConfig(standing_map=0.0))
         changes.setdefault("control_law", ControlLawConfig(r_thresh_from_robot=False))
+        changes.setdefault("behaviours", ("docking",))
         return cls(anticipatory_pc=switches[0], terminal_cost=switches[1], cost=cost, **changes)
 
     def for_map(self, resolution: float | None) -> PlannerConfig:

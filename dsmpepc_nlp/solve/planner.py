@@ -17,7 +17,7 @@ from ..core.solver_config import SolverConfig
 from ..core.world import World
 from ..perception.standing import StandingPeople
 from . import start_state
-from .behaviours import backup, docking
+from .behaviours import chain, docking
 from .behaviours.stall import StallMonitor
 from .exact import loader as exact
 from .exact.cycle import Cycle
@@ -27,7 +27,7 @@ from .optimize.sampling import STAGE as SAMPLER
 from .optimize.sampling import SamplingPlanner
 from .optimize.starts import structured_starts
 from .plan import Plan
-from .start_state import as_state, as_tolerance, law_control, start_overlap
+from .start_state import as_goal, as_state, as_tolerance, law_control, start_overlap
 
 CONFIGURED = object()
 """``Planner.plan``'s ``time_budget`` when not given: ``SolverConfig.time_budget``."""
@@ -100,6 +100,7 @@ class Planner:
             self.nlp = NlpSolver(self.config, self.solver)
         self._previous_target = None
         self._fallbacks, self._warned = 0, False
+        self.instead, self.on_plan = chain.configured(self.config)
         self.stall = StallMonitor(self.config)
         self.standing = StandingPeople(self.config)
         self.last_evaluator = None
@@ -190,14 +191,7 @@ class Planner:
             Once (until :meth:`reset`), when :data:`FALLBACK_WARNING` plans in a row fell back.
         """
         started = time.perf_counter()
-        state = as_state(state)
-        try:
-            goal = np.asarray(goal, dtype=float)
-        except (TypeError, ValueError):
-            raise InputError(f"goal = {goal!r}: must be a finite (x, y) pair") from None
-        if goal.shape != (2,) or not np.all(np.isfinite(goal)):
-            raise InputError(f"goal = {goal!r}: must be a finite (x, y) pair")
-        goal_tolerance = as_tolerance(goal_tolerance)
+        state, goal, goal_tolerance = as_state(state), as_goal(goal), as_tolerance(goal_tolerance)
         budget = self.solver.time_budget if time_budget is CONFIGURED else time_budget
         if not is_budget(budget):
             raise InputError(f"time_budget = {budget!r}: must be {BUDGET_ALLOWED}")
@@ -224,7 +218,7 @@ class Planner:
         evaluator = None if cycle is None else Evaluator(cycle, self.solver)
         self.last_evaluator = evaluator
         plan, evaluated, records = None, None, ()
-        if dock and cycle is not None:
+        if dock and cycle is not None and "docking" in self.instead:
             plan = self._timed(trouble, deadline, "docking", self._dock, evaluator,
                                goal_tolerance)
         compiling = ""
@@ -248,9 +242,9 @@ class Planner:
         if plan is None:
             plan = self._stop(state, records)
         else:
-            if cycle is not None and self.config.stall.levels:    # the ladder's back-up rung
-                plan = self._timed(trouble, deadline, "the recovery", backup.consider, plan,
-                                   state, evaluator, level, goal_tolerance) or plan
+            if cycle is not None:
+                plan = self._recover(trouble, deadline, plan, state, evaluator, level,
+                                     goal_tolerance)
             if sample and evaluated is None and cycle is not None:    # docked or the NLP's
                 evaluated = self._try(trouble, "the sampler", self.sampler.search, evaluator,
                                       starts)
@@ -282,8 +276,8 @@ class Planner:
             return None
 
     def _timed(self, trouble, deadline: Deadline, stage: str, function, *args):
-        """A stage that cannot stop once started (docking, the recovery): :meth:`_try` when
-        the time left covers what it took lately (its slowest run, decaying by
+        """A stage that cannot stop once started (docking, a behaviour on the plan): :meth:`_try`
+        when the time left covers what it took lately (its slowest run, decaying by
         :data:`TOOK_DECAY` a plan, run or skipped: one slow run does not keep it off), else
         skipped and recorded as cut."""
         took = self._took.get(stage, 0.0)
@@ -294,6 +288,19 @@ class Planner:
         result = self._try(trouble, stage, function, *args)
         self._took[stage] = max(time.perf_counter() - began, TOOK_DECAY * took)
         return result
+
+    def _recover(self, trouble, deadline: Deadline, plan: Plan, state, evaluator: Evaluator,
+                 level: int, goal_tolerance: float) -> Plan:
+        """The behaviours that run on ``plan`` (:mod:`.behaviours.chain`), in the configured
+        order, each a stage under the time budget (:meth:`_timed`); the first plan one returns
+        replaces ``plan``."""
+        recovery = chain.Recovery(plan, state, evaluator, level, goal_tolerance)
+        for name in self.on_plan:
+            stage = f"the {name.replace('-', ' ')}"
+            replaced = self._timed(trouble, deadline, stage, chain.ON_PLAN[name], recovery)
+            if replaced is not None:
+                return replaced
+        return plan
 
     def _count_fallback(self, plan: Plan) -> int:
         self._fallbacks = self._fallbacks + 1 if plan.status in FALLBACK_STATUSES else 0

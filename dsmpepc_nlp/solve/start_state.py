@@ -97,6 +97,17 @@ def braking(state: RobotState, config: PlannerConfig) -> Trajectory:
     return Trajectory(stop_z(config), poses, v, omega, poses[-1].copy())
 
 
+def as_goal(goal) -> np.ndarray:
+    """``goal`` as a finite ``(x, y)`` array; InputError otherwise."""
+    try:
+        goal = np.asarray(goal, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"goal = {goal!r}: must be a finite (x, y) pair") from None
+    if goal.shape != (2,) or not np.all(np.isfinite(goal)):
+        raise InputError(f"goal = {goal!r}: must be a finite (x, y) pair")
+    return goal
+
+
 def as_tolerance(value) -> float:
     """``Planner.plan``'s ``goal_tolerance`` as a float, or an InputError naming what is
     allowed."""

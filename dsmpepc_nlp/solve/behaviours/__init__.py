@@ -1,5 +1,6 @@
-"""What the planner does beyond the optimiser, each costed through the one evaluator or the
-exact reference: docking at a fixed goal (:mod:`.docking`), the stall monitor's ladder
-(:mod:`.stall`), the back-up rung with its reverses, dodges and turns in place and its last
-resort (:mod:`.backup`), and passive safety (:mod:`.passive`). DS-MPEPC as published
-(``PlannerConfig.paper``) runs none of them but docking."""
+"""What the planner does beyond the optimiser, each costed through the one evaluator: the chain
+the configuration orders and switches (:mod:`.chain`, ``PlannerConfig.behaviours``), docking at
+a fixed goal (:mod:`.docking`), the back-up rung's moves, reverses, dodges and turns in place
+(:mod:`.backup`, :mod:`.ways`), its last resort (:mod:`.last_resort`) with passive safety
+(:mod:`.passive`), and the stall monitor's ladder that gates them (:mod:`.stall`). DS-MPEPC as
+published (``PlannerConfig.paper``) runs none of them but docking."""

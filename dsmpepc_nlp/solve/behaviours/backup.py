@@ -1,22 +1,19 @@
-"""The stall ladder's back-up rung: reverse trajectories the pose-following law cannot make.
+"""The stall ladder's back-up rung: moves the pose-following law cannot make (the ``moves``
+behaviour of :mod:`.chain`).
 
 The law turns only while it drives forward (its turn rate is the curvature times the speed),
 so a robot that stands facing a person just ahead has no trajectory of its own that does not
 first close the gap: every one costs more than standing, and the robot waits for as long as the
-person stands (docs/experiments/2026-11-25-two-more-failure-classes.md). In the
-spirit of Nav2's back-up recovery, when the chosen plan would stand and the stall ladder is at
+person stands (docs/experiments/2026-11-25-two-more-failure-classes.md). In the spirit of Nav2's
+back-up recovery, when the chosen plan would stand and the stall ladder is at
 ``StallConfig.back_up_level`` or above (1 by default: stalled), or the robot expects to be
-struck where the plan leaves it (``StallConfig.back_up_threat``), this rung sets a few reverse
-trajectories against it, costed by the same exact cost through the plan's evaluator
-(``Evaluator.evaluate_trajectories``, the numpy reference: the compiled kernel and the graph
-only ever see the law's forward trajectories), and takes the cheapest when it is cheaper than
-the plan. ``StallConfig.back_up`` (m/s; 0 = off) and ``back_up_time``; docs/method.md
-section 7.5. With it come forward dodges against a plan the robot expects to be struck on
+struck where the plan leaves it (``StallConfig.back_up_threat``), :func:`moves` sets a few
+reverse trajectories against it, costed by the same exact cost through the plan's evaluator
+(``Evaluator.evaluate_trajectories``), and takes the cheapest when it is cheaper than the plan.
+``StallConfig.back_up`` (m/s; 0 = off) and ``back_up_time``; docs/method.md section 7.5. With
+them come forward dodges against a plan the robot expects to be struck on
 (``StallConfig.dodge``) and, once stalled, turns in place each followed by the law
-(``StallConfig.turn_to_goal``): moves the law cannot make either.
-Its last resort (``StallConfig.doomed_below``, :func:`clearest`): over a plan struck almost
-surely within the next second, where the cost's collision term has saturated for every way
-near it, the way that keeps the widest gap over that second, not the cheapest.
+(``StallConfig.turn_to_goal``). The rung's last resort is :mod:`.last_resort`.
 """
 
 from __future__ import annotations
@@ -30,7 +27,7 @@ from ...core.control_law import stacked
 from ..exact.evaluator import Evaluator
 from ..plan import Plan
 from . import docking
-from .last_resort import clearest, survival_within
+from .last_resort import survival_within
 from .ways import (
     Ways,
     back_up_speed,
@@ -67,26 +64,21 @@ def arrival_time(plan: Plan, goal, goal_tolerance: float, config: PlannerConfig)
     return math.inf if step is None else step * config.horizon.dt
 
 
-def consider(plan: Plan, state, evaluator: Evaluator, level: int,
-             goal_tolerance: float = 0.0) -> Plan | None:
-    """The rung's plan, or None (keep ``plan``), every way costed by the plan's ``evaluator``
-    (its cycle's world, goal and config). With the rung on: reverse trajectories when
-    the plan stands and the ladder is at ``back_up_level`` or above or the plan is
-    :func:`threatened`; forward dodges (``stall.dodge``) when it is threatened, standing or
-    not; turns in place (``stall.turn_to_goal``, :func:`turn_trajectories`) when the ladder
-    is at ``turn_level`` or above and the plan is not docked. A docked plan's threat is read
-    at its :func:`arrival_time` (``goal_tolerance``: the fixed goal's, m). The cheapest of
-    them by the exact cost replaces the plan if it is cheaper."""
+def moves(plan: Plan, state, evaluator: Evaluator, level: int, arrival: float = math.inf,
+          ways: Ways | None = None) -> Plan | None:
+    """The rung's moves against ``plan``, or None (keep it), every way costed by the plan's
+    ``evaluator`` (its cycle's world, goal and config): reverse trajectories when the plan
+    stands and the ladder is at ``back_up_level`` or above or the plan is :func:`threatened`;
+    forward dodges (``stall.dodge``) when it is threatened, standing or not; turns in place
+    (``stall.turn_to_goal``, :func:`turn_trajectories`) when the ladder is at ``turn_level``
+    or above and the plan is not docked. A docked plan's threat is read at ``arrival`` (its
+    :func:`arrival_time`, s). The cheapest of them by the exact cost replaces the plan if it
+    is cheaper. ``ways``: this cycle's :class:`Ways` if already made (the chain's
+    :class:`~.chain.Recovery` shares them with the last resort)."""
     cycle = evaluator.cycle
     config = cycle.config
     stall = config.stall
-    if stall.back_up <= 0.0:
-        return None
-    arrival = arrival_time(plan, cycle.goal, goal_tolerance, config)
-    ways = Ways(state, config, cycle.world)
-    cleared = clearest(plan, state, evaluator, arrival, ways)
-    if cleared is not None:
-        return cleared
+    ways = ways or Ways(state, config, cycle.world)
     threat = threatened(plan, config, arrival)
     stalled = level >= stall.back_up_level
     reverse = (back_up_speed(config) > 0.0 and stands(plan, config) and (stalled or threat)

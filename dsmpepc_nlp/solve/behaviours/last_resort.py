@@ -39,11 +39,12 @@ def clearest(plan: Plan, state, evaluator: Evaluator, arrival: float = math.inf,
     gaps measured and the way costed by the plan's ``evaluator``.
 
     Doomed: the plan's survival over the next ``stall.clearance_within`` seconds (until
-    ``arrival``, s, if that is sooner: a docked plan's :func:`arrival_time`, where the task
-    ends, as :func:`consider` reads it) is below ``doomed_below``. Then the plan and this
-    cycle's :class:`Ways` (``ways`` if already made) are set by their :func:`clearance` over
-    the next ``clearance_within`` seconds instead of their cost, and the clearest replaces
-    the plan when its gap is wider; all below 0, the least approaching (``stall.passive``)."""
+    ``arrival``, s, if that is sooner: a docked plan's :func:`.backup.arrival_time`, where the
+    task ends, as :class:`.chain.Recovery` reads it) is below ``doomed_below``. Then the plan
+    and this cycle's :class:`Ways` (``ways`` if already made) are set by their
+    :func:`clearance` over the next ``clearance_within`` seconds instead of their cost, and the
+    clearest replaces the plan when its gap is wider; all below 0, the least approaching
+    (``stall.passive``)."""
     cycle = evaluator.cycle
     config = cycle.config
     stall = config.stall

@@ -98,7 +98,7 @@ def turn_trajectories(plan: Plan, state, goal, config: PlannerConfig) -> Traject
 
 class Ways:
     """This cycle's dodges and reverses from ``state``, each built once, when first read (a
-    doomed plan that stays the clearest meets the same ways again in :func:`consider`).
+    doomed plan that stays the clearest meets the same ways again in :func:`.backup.moves`).
 
     With ``world`` given, :attr:`reverses` keeps only the reverses that stay in space the
     world's map has seen free (:func:`reverses_seen`; every one with a map that knows nothing
