@@ -130,3 +130,23 @@ def test_variants_side_by_side_with_orca(tmp_path, tiny, capsys):
     assert summary["variants"]["orca"]["tiny"]["failed"] == 0
     planner = summary["variants"]["mpepc"]["tiny"]
     assert 0 < planner["plan_time_median"] <= planner["plan_time_p95"]
+
+
+def test_scenarios_take_set_and_keep_it_in_the_table(tmp_path, tiny, capsys):
+    """``benchmark scenarios --set NAME=VALUE`` replaces a field of the preset for every run
+    (here the robot's speed limit, which changes the path), stores it in the table's meta,
+    and a table made with other settings is not resumed with these."""
+    common = ["benchmark", "scenarios", "--scenarios", tiny, "--variants", "ds-mpepc",
+              "--solver", "sampling", "--samples", "16", "--workers", "1", "--json"]
+    assert cli.main([*common, "--out", str(tmp_path / "a")]) == 0
+    plain = json.loads(capsys.readouterr().out)
+    argv = [*common, "--out", str(tmp_path / "b"), "--set", "robot.v_limit=0.5"]
+    assert cli.main(argv) == 0
+    slow = json.loads(capsys.readouterr().out)
+    meta = json.loads((tmp_path / "b" / "scenarios.json").read_text())["meta"]
+    assert meta["overrides"] == {"robot.v_limit": 0.5}
+    rows = json.loads((tmp_path / "b" / "scenarios.json").read_text())["rows"]
+    assert rows and all(r["robot.v_limit"] == 0.5 for r in rows)
+    assert slow["variants"]["ds-mpepc"] != plain["variants"]["ds-mpepc"]
+    assert cli.main([*common, "--out", str(tmp_path / "a"), "--set", "robot.v_limit=0.5",
+                     "--resume"]) != 0

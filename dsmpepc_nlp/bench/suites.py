@@ -190,6 +190,8 @@ def _grid_options(p, out_default: str) -> None:
 
 def add_scenarios(p) -> None:
     p.add_argument("--variants", nargs="+", default=["mpepc", "ds-mpepc", "orca"])
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="replace a field of the preset, e.g. docking.follow=0 (repeatable)")
     _grid_options(p, "results/scenarios")
 
 
@@ -201,7 +203,8 @@ def run_scenarios(args) -> dict:
     return sweep.run_scenarios(args.variants, [s for s in args.scenarios.split(",") if s],
                                parse_indices(args.seeds, "--seeds"), settings, args.out,
                                workers=args.workers, scheduler=args.scheduler,
-                               resume=args.resume, overwrite=args.overwrite)
+                               resume=args.resume, overwrite=args.overwrite,
+                               params=dict(overrides(args.set)))
 
 
 def add_sweep(p) -> None:

@@ -195,8 +195,9 @@ def plot_heatmaps(rows, names, out_dir) -> list:
 
 def run_scenarios(variants, scenarios, seeds, settings: SweepSettings, out_dir, *,
                   workers=None, scheduler=None, resume=False, overwrite=False,
-                  progress=True) -> dict:
-    """Planner variants (``orca`` included) side by side on scenarios x seeds.
+                  progress=True, params=None) -> dict:
+    """Planner variants (``orca`` included) side by side on scenarios x seeds, each with the
+    configuration fields ``params`` (``{name: value}``, ``--set``) replaced.
 
     The table is ``scenarios.{json,csv}`` keyed by (variant, scenario, seed); the summary has,
     per variant and scenario, the rates over seeds and robots and the plan times
@@ -206,11 +207,14 @@ def run_scenarios(variants, scenarios, seeds, settings: SweepSettings, out_dir, 
     check_variants(variants)
     for name in scenarios:
         load_scenario(name)
+    params = dict(params or {})
     meta = dict(settings.meta(), benchmark="scenarios")
     meta.pop("variant")
+    if params:
+        meta["overrides"] = params
     table = ResultTable(out_dir, "scenarios", ("variant", "scenario", "seed"), meta,
                         resume=resume, overwrite=overwrite)
-    runs = [{"params": {}, "variant": v, "scenario": s, "seed": int(k)}
+    runs = [{"params": params, "variant": v, "scenario": s, "seed": int(k)}
             for v in variants for s in scenarios for k in seeds]
     run_all(run_one, [(r, settings, str(out_dir)) for r in runs], table,
             label="scenarios",
