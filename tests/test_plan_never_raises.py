@@ -14,7 +14,7 @@ from dsmpepc_nlp.core.config import PlannerConfig, RobotState
 from dsmpepc_nlp.core.solver_config import SolverConfig
 from dsmpepc_nlp.core.world import OccupancyGrid, World
 from dsmpepc_nlp.solve import planner as planner_module
-from dsmpepc_nlp.solve import start_state
+from dsmpepc_nlp.solve import start_state, verdicts
 from dsmpepc_nlp.solve.exact.cycle import Cycle
 from dsmpepc_nlp.solve.optimize.sampling import SamplingPlanner
 from dsmpepc_nlp.solve.planner import Planner
@@ -55,10 +55,10 @@ class FailingNlp:
 STAGES = {
     "the starts": (planner_module, "structured_starts"),
     "the cycle": (Cycle, "prepare"),
-    "docking": (Planner, "_dock"),
-    "the NLP's verdict": (Planner, "_choose_nlp"),
+    "docking": (Planner, "_docked"),
+    "the NLP's verdict": (verdicts, "choose_nlp"),
     "the sampler": (SamplingPlanner, "search"),
-    "the sampled verdict": (Planner, "_from_evaluation"),
+    "the sampled verdict": (verdicts, "from_evaluation"),
 }
 
 

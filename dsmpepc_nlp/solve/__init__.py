@@ -1,7 +1,8 @@
 """The planner: ``Planner.plan(state, world, goal) -> Plan``, in rooms by idea.
 
-- :mod:`.planner`, :mod:`.plan`, :mod:`.policy`, :mod:`.start_state`: the front door. The
-  planner's stages, the :class:`~.plan.Plan` it returns (and each NLP start's record), the
+- :mod:`.planner`, :mod:`.verdicts`, :mod:`.plan`, :mod:`.policy`, :mod:`.start_state`: the
+  front door. The planner's stages, the verdicts that make the search's best a plan, the
+  :class:`~.plan.Plan` it returns (and each NLP start's record), the
   planner interface the baselines share, and the start as given (an overlap, Lemma 3's brake).
 - :mod:`.problem`: what is optimised. The smooth cost as one CasADi graph in z (its parameter
   layout, geometry, pieces, build) and the configuration's numbers as its parameters.

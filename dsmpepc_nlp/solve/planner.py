@@ -16,18 +16,18 @@ from ..core.errors import InputError
 from ..core.solver_config import SolverConfig
 from ..core.world import World
 from ..perception.standing import StandingPeople
-from . import start_state
+from . import start_state, verdicts
 from .behaviours import chain, docking
 from .behaviours.stall import StallMonitor
 from .exact import loader as exact
 from .exact.cycle import Cycle
 from .exact.evaluator import Evaluation, Evaluator
-from .optimize.multistart import SOLVES, NlpSolver
+from .optimize.multistart import NlpSolver
 from .optimize.sampling import STAGE as SAMPLER
 from .optimize.sampling import SamplingPlanner
 from .optimize.starts import structured_starts
 from .plan import Plan
-from .start_state import as_goal, as_state, as_tolerance, law_control, start_overlap
+from .start_state import as_goal, as_state, as_tolerance, start_overlap
 
 CONFIGURED = object()
 """``Planner.plan``'s ``time_budget`` when not given: ``SolverConfig.time_budget``."""
@@ -204,52 +204,82 @@ class Planner:
             overlap = self._try([], "the overlap", start_overlap, state, world, self.config)
         if overlap:                         # Lemma 3: brake, and nothing else moves the robot
             return self._in_collision(state, world, goal, overlap, started)
-        # Every stage runs inside the fallback chain: a stage that raises is reported in the
-        # message and the next one takes over; the stop trajectory is the last resort.
-        trouble = []
-        level = self._try(trouble, "the stall monitor", self.stall.update, state, goal) or 0
-        config = self.stall.config_for(level)
+        # The stages, in order. Each runs inside the fallback chain: a stage that raises is
+        # named in the message and the next one takes over; the stop trajectory is the last.
+        work = _Work(state, goal, goal_tolerance, deadline)
+        self._model(work, world)        # the stall level, people who stand, the starts, the cycle
+        if dock:
+            self._dock(work)            # docking, instead of the optimiser
+        self._optimise(work)            # the NLP, else the sampler, else a stop
+        self._on_plan(work, sample)     # the behaviours on the plan (:mod:`.behaviours.chain`)
+        return self._finish(work, started)
+
+    def _model(self, work: _Work, world: World) -> None:
+        """What the plan sees: the stall level (and its config), the world with the people who
+        stood drawn in, the named starts, the cycle and its one evaluator, the door to the
+        exact cost for every stage that follows."""
+        state, goal, trouble = work.state, work.goal, work.trouble
+        work.level = self._try(trouble, "the stall monitor", self.stall.update, state, goal) or 0
         world = self._try(trouble, "the standing people", self.standing.update, world,
                           (state.x, state.y), goal) or world
-        starts = self._try(trouble, "the starts", structured_starts, state, goal, self.config,
-                          self._previous_target, self.solver) or {}
-        cycle = self._try(trouble, "the cycle", Cycle.prepare, state, world, goal, config)
-        # The one door to the exact cost for this plan: every stage below costs through it.
-        evaluator = None if cycle is None else Evaluator(cycle, self.solver)
-        self.last_evaluator = evaluator
-        plan, evaluated, records = None, None, ()
-        if dock and cycle is not None and "docking" in self.instead:
-            plan = self._timed(trouble, deadline, "docking", self._dock, evaluator,
-                               goal_tolerance)
+        work.starts = self._try(trouble, "the starts", structured_starts, state, goal,
+                                self.config, self._previous_target, self.solver) or {}
+        cycle = self._try(trouble, "the cycle", Cycle.prepare, state, world, goal,
+                          self.stall.config_for(work.level))
+        work.evaluator = None if cycle is None else Evaluator(cycle, self.solver)
+        self.last_evaluator = work.evaluator
+
+    def _dock(self, work: _Work) -> None:
+        """``docking`` when the chain names it: the plan, if a docking way is safe enough."""
+        if work.evaluator is not None and "docking" in self.instead:
+            work.plan = self._timed(work.trouble, work.deadline, "docking", self._docked,
+                                    work.evaluator, work.goal_tolerance)
+
+    def _optimise(self, work: _Work) -> None:
+        """The chosen solver when nothing took its place: the NLP (unless its library is
+        still compiling), else or then the sampler, else the stop trajectory."""
+        trouble, evaluator, deadline = work.trouble, work.evaluator, work.deadline
+        if work.plan is not None:
+            return
         compiling = ""
-        if plan is None and self.nlp is not None and cycle is not None \
-                and self.compile == "background":
+        if self.nlp is not None and evaluator is not None and self.compile == "background":
             _, compiling = self._try(trouble, "the NLP's readiness", self.nlp.readiness,
-                                    cycle) or (True, "")
-        if plan is None and self.nlp is not None and cycle is not None and not compiling:
-            records = self._try(trouble, "the NLP", self._solve_nlp, evaluator, starts,
-                                deadline) or ()
-            plan = self._try(trouble, "the NLP's verdict", self._choose_nlp, records, evaluator,
-                             deadline)
-        if plan is None and cycle is not None:
+                                    evaluator.cycle) or (True, "")
+        if self.nlp is not None and evaluator is not None and not compiling:
+            work.records = self._try(trouble, "the NLP", self._solve_nlp, evaluator,
+                                     work.starts, deadline) or ()
+            work.plan = self._try(trouble, "the NLP's verdict", verdicts.choose_nlp,
+                                  work.records, evaluator, deadline, self.config, self.nlp)
+        if work.plan is None and evaluator is not None:
             sampler = self.sampler if not compiling else self._quick_sampler()
-            evaluated = evaluated or self._try(trouble, "the sampler", sampler.search,
-                                              evaluator, starts, deadline)
-            if evaluated is not None:
-                plan = self._try(trouble, "the sampled verdict", self._from_evaluation,
-                                evaluated, state, fallback=self.nlp is not None, records=records,
-                                compiling=compiling, cut=SAMPLER in deadline.cut)
-        if plan is None:
-            plan = self._stop(state, records)
-        else:
-            if cycle is not None:
-                plan = self._recover(trouble, deadline, plan, state, evaluator, level,
-                                     goal_tolerance)
-            if sample and evaluated is None and cycle is not None:    # docked or the NLP's
-                evaluated = self._try(trouble, "the sampler", self.sampler.search, evaluator,
-                                      starts)
-        if trouble:
-            plan = _replace(plan, message="; ".join(trouble) + "; " + plan.message,
+            work.evaluated = self._try(trouble, "the sampler", sampler.search, evaluator,
+                                       work.starts, deadline)
+            if work.evaluated is not None:
+                work.plan = self._try(trouble, "the sampled verdict", verdicts.from_evaluation,
+                                      work.evaluated, work.state, self.config,
+                                      fallback=self.nlp is not None, records=work.records,
+                                      compiling=compiling, cut=SAMPLER in deadline.cut)
+        if work.plan is None:
+            work.plan = self._stop(work.state, work.records)
+            work.stopped = True
+
+    def _on_plan(self, work: _Work, sample: bool) -> None:
+        """The behaviours that run on the plan (none on a stop), and with ``sample`` the
+        sampler's diagnostic run beside a docked or NLP plan."""
+        if work.stopped or work.evaluator is None:
+            return
+        work.plan = self._recover(work.trouble, work.deadline, work.plan, work.state,
+                                  work.evaluator, work.level, work.goal_tolerance)
+        if sample and work.evaluated is None:
+            work.evaluated = self._try(work.trouble, "the sampler", self.sampler.search,
+                                       work.evaluator, work.starts)
+
+    def _finish(self, work: _Work, started: float) -> Plan:
+        """The plan with what happened said: stages that raised, the stall level, what the
+        time budget cut; its wall time and records; the next plan's warm start kept."""
+        plan, deadline, level = work.plan, work.deadline, work.level
+        if work.trouble:
+            plan = _replace(plan, message="; ".join(work.trouble) + "; " + plan.message,
                             success=False)
         if level:
             plan = _replace(plan, message=f"{self.stall.describe(level)}; {plan.message}")
@@ -257,7 +287,7 @@ class Planner:
             plan = _replace(plan, cut=tuple(deadline.cut), message=(
                 f"time budget of {deadline.seconds * 1e3:.0f} ms spent, cut: "
                 f"{', '.join(deadline.cut)}; {plan.message}"))
-        plan = _replace(plan, wall_time=time.perf_counter() - started, evaluated=evaluated,
+        plan = _replace(plan, wall_time=time.perf_counter() - started, evaluated=work.evaluated,
                         fallbacks_in_row=self._count_fallback(plan), stall_level=level)
         self._previous_target = (plan.trajectory.target, float(plan.x[3]))
         if self.compile == "background":
@@ -312,67 +342,14 @@ class Planner:
 
     # -- the pieces of plan() ---------------------------------------------------------------
 
-    def _dock(self, evaluator: Evaluator, goal_tolerance: float) -> Plan | None:
+    def _docked(self, evaluator: Evaluator, goal_tolerance: float) -> Plan | None:
         docked = docking.dock(evaluator, self.config, goal_tolerance)
-        return None if docked is None else self._plan_from(docked[0], 0, "docked", True,
-                                                           docked[1], 0, ())
+        return None if docked is None else verdicts.plan_from(
+            docked[0], 0, "docked", True, docked[1], 0, (), self.config)
 
     def _solve_nlp(self, evaluator: Evaluator, starts, deadline: Deadline) -> tuple:
         """Every NLP start's record with its exact cost."""
-        return self._verify(self.nlp.solve(evaluator, starts, deadline), evaluator)
-
-    def _verify(self, original, evaluator: Evaluator) -> tuple:
-        """Exact cost of every start's result: the verdict on the NLP.
-
-        Records that arrive with a finite ``exact_cost`` (the NLP solver costs its screened
-        starts and results through the same evaluator) are not costed twice.
-        """
-        records = [r for r in original if not math.isfinite(r.exact_cost)]
-        finite = [r for r in records if np.all(np.isfinite(r.z))]
-        costs = {}
-        if finite:
-            totals = evaluator.totals(np.array([r.z for r in finite]))
-            costs = {id(r): float(c) for r, c in zip(finite, totals)}
-        return tuple(r if math.isfinite(r.exact_cost)
-                     else _replace(r, exact_cost=costs.get(id(r), math.nan)) for r in original)
-
-    def _choose_nlp(self, records, evaluator: Evaluator, deadline: Deadline) -> Plan | None:
-        """The best record by exact cost; with the solves cut by the deadline, whatever it
-        is (a screened start is a candidate like any other), status ``deadline``."""
-        usable = [r for r in records if math.isfinite(r.exact_cost)]
-        cut = SOLVES in deadline.cut
-        if not usable or not (cut or any(r.success for r in usable)):
-            return None
-        best = min(usable, key=lambda r: r.exact_cost)
-        ev = evaluator.evaluate(best.z)       # read back from the batch that costed it
-        nit = sum(r.nit for r in records)
-        message = f"NLP: best of {len(records)} starts is '{best.name}' ({best.status})" + (
-            "; no screen of the box, no polish: the compiled exact kernel is loading"
-            if self.nlp.kernel_loading else "")
-        if cut:
-            return self._plan_from(ev, 0, "deadline", False, "the time budget cut the NLP's "
-                                   f"solves: {message[5:]}", nit, records)
-        return self._plan_from(ev, 0, "nlp", True, message, nit, records)
-
-    def _from_evaluation(self, evaluated: Evaluation, state, *, fallback: bool, records,
-                         compiling: str = "", cut: bool = False) -> Plan:
-        index = evaluated.best()
-        if index is None:
-            return self._stop(state, records)
-        if compiling:
-            return self._plan_from(evaluated, index, "sampling-compiling", True,
-                                   f"{compiling}: best of {len(evaluated.z)} sampled "
-                                   "trajectories used", 0, ())
-        if fallback:
-            return self._plan_from(evaluated, index, "sampling-fallback", False,
-                                   "every NLP start failed; best sampled trajectory used",
-                                   sum(r.nit for r in records), records)
-        if cut:
-            return self._plan_from(evaluated, index, "deadline", False, "the time budget "
-                                   f"cut the sampler: best of the {len(evaluated.z)} sampled "
-                                   "trajectories costed", 0, ())
-        return self._plan_from(evaluated, index, "sampling", True,
-                               f"best of {len(evaluated.z)} sampled trajectories", 0, ())
+        return verdicts.verify(self.nlp.solve(evaluator, starts, deadline), evaluator)
 
     def _in_collision(self, state, world, goal, overlap: str, started: float) -> Plan:
         """The brake of a robot whose footprint already overlaps the map or an object
@@ -385,12 +362,23 @@ class Planner:
     def _stop(self, state, records) -> Plan:
         return start_state.stop_plan(state, records, self.config)
 
-    def _plan_from(self, ev: Evaluation, index, status, success, message, nit, records) -> Plan:
-        trajectory = ev.trajectories[index]
-        return Plan(ev.z[index], float(ev.costs.total[index]), success, message, nit,
-                    trajectory, law_control(trajectory, self.config), ev.costs[index], status,
-                    tuple(records))
-
-
 def _replace(obj, **changes):
     return dataclasses.replace(obj, **changes)
+
+
+@dataclasses.dataclass
+class _Work:
+    """One plan's work as its stages hand it on (:meth:`Planner.plan`)."""
+
+    state: RobotState
+    goal: np.ndarray
+    goal_tolerance: float
+    deadline: Deadline
+    trouble: list = dataclasses.field(default_factory=list)
+    level: int = 0
+    starts: dict = dataclasses.field(default_factory=dict)
+    evaluator: Evaluator | None = None
+    plan: Plan | None = None
+    stopped: bool = False
+    records: tuple = ()
+    evaluated: Evaluation | None = None
