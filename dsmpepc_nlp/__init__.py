@@ -7,7 +7,6 @@ from .core.config import (
     DockingConfig,
     HorizonConfig,
     PlannerConfig,
-    PredictionConfig,
     RobotConfig,
     RobotState,
     StallConfig,
@@ -31,7 +30,7 @@ __all__ = [
     "BoundsConfig", "ControlLawConfig", "CostBreakdown", "CostConfig", "DockingConfig",
     "DynamicObstacle", "HorizonConfig", "InputError", "LocalSolverSettings", "MultistartSettings",
     "NavigationFunction", "OccupancyGrid", "ParallelSettings", "Plan", "Planner", "PlannerConfig",
-    "PolishSettings", "PredictionConfig", "RobotConfig", "RobotState", "SmoothingConfig",
+    "PolishSettings", "RobotConfig", "RobotState", "SmoothingConfig",
     "SolverConfig", "StallConfig", "StartRecord", "Trajectory", "World", "__version__",
     "evaluate", "rollout", "rollout_function",
 ]

@@ -366,9 +366,8 @@ def test_the_benchmark_tool_runs(capsys):
 
 
 def test_a_planner_imports_no_scipy_optimize():
-    """Every planner imports the perception package (the standing map); the tracker's
-    assignment (scipy.optimize, ~0.4 s of imports) waits until a tracker assigns, so a fresh
-    process's first plan does not pay for it."""
+    """The tracker's assignment (scipy.optimize, ~0.4 s of imports) waits until a tracker
+    assigns, so a fresh process's first plan does not pay for it."""
     import subprocess
     import sys
 

@@ -17,7 +17,7 @@ from ..core.errors import InputError
 from ..core.solver_config import SolverConfig
 
 SECTIONS = ("robot", "control_law", "horizon", "bounds", "cost", "smoothing", "docking",
-            "stall", "prediction")
+            "stall")
 """PlannerConfig parts a parameter may name as ``part.field``; a bare name is a ``cost`` field."""
 
 

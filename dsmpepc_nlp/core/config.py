@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 from .cost_config import CostConfig, SmoothingConfig
 from .errors import MAX_SIZE, MAX_SPEED, InputError
-from .loop_config import DockingConfig, PredictionConfig, StallConfig
+from .loop_config import DockingConfig, StallConfig
 from .terms import TERM_NAMES
 from .validation import check_booleans, fail, validate_fields
 
@@ -191,7 +191,6 @@ class PlannerConfig:
     smoothing: SmoothingConfig = field(default_factory=SmoothingConfig)
     docking: DockingConfig = field(default_factory=DockingConfig)
     stall: StallConfig = field(default_factory=StallConfig)
-    prediction: PredictionConfig = field(default_factory=PredictionConfig)
     anticipatory_pc: bool = True
     """DS-MPEPC's collision probability with the time-to-collision factor (paper eq. 5)."""
     terminal_cost: bool = True
@@ -208,7 +207,6 @@ class PlannerConfig:
             "robot": RobotConfig, "control_law": ControlLawConfig, "horizon": HorizonConfig,
             "bounds": BoundsConfig, "cost": CostConfig, "smoothing": SmoothingConfig,
             "docking": DockingConfig, "stall": StallConfig,
-            "prediction": PredictionConfig,
         }
         for name, kind in expected.items():
             if not isinstance(getattr(self, name), kind):
@@ -243,9 +241,8 @@ class PlannerConfig:
                                                     region_points=0,
                                                     arrival_at_tolerance=False))
         changes.setdefault("stall", StallConfig(levels=0, back_up=0.0, dodge=False,
-                                                  turn_to_goal=0.0, doomed_below=0.0,
+                                                  doomed_below=0.0,
                                                   threat_until_arrival=False, passive=False))
-        changes.setdefault("prediction", PredictionConfig(standing_map=0.0))
         changes.setdefault("control_law", ControlLawConfig(r_thresh_from_robot=False))
         changes.setdefault("behaviours", ("docking",))
         return cls(anticipatory_pc=switches[0], terminal_cost=switches[1], cost=cost, **changes)

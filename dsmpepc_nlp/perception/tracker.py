@@ -243,8 +243,8 @@ class PeopleTracker:
         cost = cost[np.ix_(useful_rows, useful_columns)]
         allowed = allowed[np.ix_(useful_rows, useful_columns)]
         outside = self.config.gate * (min(cost.shape) + 1)
-        # here, not at the top: scipy.optimize costs ~0.4 s of imports, and every planner
-        # imports this package (the standing map) whether or not it tracks anyone
+        # here, not at the top: scipy.optimize costs ~0.4 s of imports, and a process that
+        # imports this package need not track anyone
         from scipy.optimize import linear_sum_assignment
 
         picked_rows, picked_columns = linear_sum_assignment(np.where(allowed, cost, outside))

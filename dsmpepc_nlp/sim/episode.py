@@ -253,6 +253,12 @@ REMOVED = {"stall": {"judge_beyond": (0.0,), "judge_level": None, "judge_sooner"
 the values that planned as the package does now (None: any value, a field that acted only with
 another of them): such a field is dropped; another value cannot be replayed."""
 
+REMOVED_PARTS = ("prediction",)
+"""Parts a saved configuration may hold that the package no longer has, dropped whatever they
+held: ``prediction`` held the standing map (``prediction.standing_map``, on by default until
+2026-12-06), so an episode saved with it replays without it, and its plans may differ where a
+person stood in a world without a map."""
+
 
 def _without_removed(name: str, value: dict) -> dict:
     """``value`` (the saved ``name`` part) without the fields of :data:`REMOVED`; InputError
@@ -272,6 +278,8 @@ def config_from_dict(data: dict) -> PlannerConfig:
     kinds = {name: type(getattr(PlannerConfig(), name)) for name in parts}
     values = {}
     for name, value in data.items():
+        if name in REMOVED_PARTS:
+            continue
         if isinstance(value, dict):
             value = {k: float(v) if isinstance(v, str) else v for k, v in value.items()}
             value = BEFORE_THEY_WERE.get(name, {}) | _without_removed(name, value)

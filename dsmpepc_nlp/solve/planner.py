@@ -15,7 +15,6 @@ from ..core.deadline import BUDGET_ALLOWED, Deadline, budget_seconds, is_budget
 from ..core.errors import InputError
 from ..core.solver_config import SolverConfig
 from ..core.world import World
-from ..perception.standing import StandingPeople
 from . import start_state, verdicts
 from .behaviours import chain, docking
 from .behaviours.stall import StallMonitor
@@ -102,7 +101,6 @@ class Planner:
         self._fallbacks, self._warned = 0, False
         self.instead, self.on_plan = chain.configured(self.config)
         self.stall = StallMonitor(self.config)
-        self.standing = StandingPeople(self.config)
         self.last_evaluator = None
         self._took = {}
 
@@ -139,7 +137,6 @@ class Planner:
         self._previous_target = None
         self._fallbacks, self._warned = 0, False
         self.stall.reset()
-        self.standing.reset()
 
     def plan(self, state: RobotState, world: World, goal, *, dock: bool = True,
              sample: bool = False, goal_tolerance: float = 0.0,
@@ -207,7 +204,7 @@ class Planner:
         # The stages, in order. Each runs inside the fallback chain: a stage that raises is
         # named in the message and the next one takes over; the stop trajectory is the last.
         work = _Work(state, goal, goal_tolerance, deadline)
-        self._model(work, world)        # the stall level, people who stand, the starts, the cycle
+        self._model(work, world)        # the stall level, the starts, the cycle
         if dock:
             self._dock(work)            # docking, instead of the optimiser
         self._optimise(work)            # the NLP, else the sampler, else a stop
@@ -215,13 +212,10 @@ class Planner:
         return self._finish(work, started)
 
     def _model(self, work: _Work, world: World) -> None:
-        """What the plan sees: the stall level (and its config), the world with the people who
-        stood drawn in, the named starts, the cycle and its one evaluator, the door to the
-        exact cost for every stage that follows."""
+        """What the plan sees: the stall level (and its config), the named starts, the cycle
+        and its one evaluator, the door to the exact cost for every stage that follows."""
         state, goal, trouble = work.state, work.goal, work.trouble
         work.level = self._try(trouble, "the stall monitor", self.stall.update, state, goal) or 0
-        world = self._try(trouble, "the standing people", self.standing.update, world,
-                          (state.x, state.y), goal) or world
         work.starts = self._try(trouble, "the starts", structured_starts, state, goal,
                                 self.config, self._previous_target, self.solver) or {}
         cycle = self._try(trouble, "the cycle", Cycle.prepare, state, world, goal,
