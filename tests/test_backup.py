@@ -230,12 +230,74 @@ def test_switched_off_never_backs_up_and_a_moving_plan_is_kept():
     assert chain.recover(moving, state, Evaluator(cycle), level=3) is None
 
 
+def test_a_stalled_robot_facing_away_from_its_goal_turns_in_place_toward_it():
+    """Goal behind, nobody about: the law's plan crawls round (it slows with its curvature);
+    once stalled, the rung's turn in place toward the goal, then ahead to it, is far cheaper by
+    the exact cost (``stall.turn_to_goal``). Not before the ladder's level, not when off."""
+    state, goal = RobotState(0.0, 0.0, math.pi, 0.05, 0.0), (3.0, 0.5)
+    solver = SolverConfig.sampling(n_samples=256)
+    monitor = Planner(PlannerConfig(), solver).stall
+    assert PlannerConfig().stall.turn_to_goal == pytest.approx(math.pi / 4)
+    assert PlannerConfig.paper().stall.turn_to_goal == 0.0
+    for level in (0, 1, 3):
+        config = monitor.config_for(level)
+        plan = Planner(config, solver).plan(state, World(), goal, dock=False)
+        cycle = Cycle.prepare(state, World(), goal, config)
+        turned = chain.recover(plan, state, Evaluator(cycle), level)
+        if level == 0:
+            assert turned is None
+            continue
+        assert turned.status == "turning" and "turning in place toward the goal" in turned.message
+        assert turned.fun < plan.fun - 1.0
+        assert turned.control[0] == 0.0 and turned.control[1] < 0.0    # right, the short way
+        end = turned.trajectory.poses[-1]
+        assert math.hypot(goal[0] - end[0], goal[1] - end[1]) < 1.0     # and on to the goal
+        assert path_length(turned.trajectory.poses) > 2 * path_length(plan.trajectory.poses)
+        off = dataclasses.replace(config, stall=dataclasses.replace(config.stall,
+                                                                    turn_to_goal=0.0))
+        kept = chain.recover(plan, state, Evaluator(Cycle.prepare(state, World(), goal, off)),
+                               level)
+        assert kept is None or kept.status != "turning"
+
+
+def path_length(poses) -> float:
+    return float(np.sum(np.hypot(*np.diff(poses[:, :2], axis=0).T)))
+
+
+def test_the_turns_stay_within_the_limits_and_end_near_the_line_to_their_target():
+    state = RobotState(0.0, 0.0, 0.0, 0.3, 0.4)
+    config = PlannerConfig()
+    plan = Planner(config, SolverConfig.sampling(n_samples=64)).plan(state, World(), (-4.0, 1.0))
+    t = moves.turn_trajectories(plan, state, (-4.0, 1.0), config)
+    robot, dt = config.robot, config.horizon.dt
+    assert t.poses.shape == (2 + 2 * (moves.DODGE_TURN_STEPS - 1), config.horizon.n_steps + 1, 3)
+    assert np.min(t.v) >= 0.0 and np.max(t.v) <= robot.v_limit + 1e-12
+    assert np.max(np.abs(t.omega)) <= robot.omega_limit + 1e-12
+    v = np.concatenate([np.full((len(t.v), 1), 0.3), t.v], axis=1)
+    omega = np.concatenate([np.full((len(t.v), 1), 0.4), t.omega], axis=1)
+    assert np.max(np.abs(np.diff(v, axis=1))) <= robot.accel_limit * dt + 1e-9
+    assert np.max(np.abs(np.diff(omega, axis=1))) <= robot.alpha_limit * dt + 1e-9
+    assert np.all(t.v[:2, 3] == 0.0)                        # braked to turn where it stands
+    turned = np.argmax(t.v > 0.0, axis=1)                   # where each sets off
+    for i, aim in enumerate(((-4.0, 1.0), plan.trajectory.target[:2])):
+        x, y, phi = t.poses[i, turned[i]]
+        away = abs(math.remainder(math.atan2(aim[1] - y, aim[0] - x) - phi, 2 * math.pi))
+        assert away <= config.stall.turn_to_goal + 0.3     # within a step's turn of the limit
+    steps = moves.DODGE_TURN_STEPS - 1                      # then 1..7 periods either way
+    for first, sign in ((2, 1.0), (2 + steps, -1.0)):
+        ends = [t.poses[first + k - 1, k, 2] for k in range(1, steps + 1)]
+        assert np.all(sign * np.diff(np.unwrap(ends)) > 0)     # each turns further in place
+        assert np.all(t.v[first:first + steps, 0] <= 0.3)       # braking, not driving off
+
+
 @pytest.mark.parametrize("changes, field", [({"back_up": -0.1}, "back_up"),
                                             ({"back_up_time": 0.0}, "back_up_time"),
                                             ({"back_up_level": -1}, "back_up_level"),
                                             ({"back_up_threat": 1.5}, "back_up_threat"),
                                             ({"dodge": "yes"}, "dodge"),
-                                            ({"dodge_within": 0.0}, "dodge_within")])
+                                            ({"dodge_within": 0.0}, "dodge_within"),
+                                            ({"turn_to_goal": -0.1}, "turn_to_goal"),
+                                            ({"turn_to_goal": 4.0}, "turn_to_goal")])
 def test_bad_back_up_settings_are_refused_by_name(changes, field):
     with pytest.raises(InputError, match=field):
         StallConfig(**changes)

@@ -7,7 +7,7 @@ name): the numpy reference ``core.exact_cost.evaluate``, its geometry ``exact_ge
 numpy path ``_evaluate_numpy``. Each call is recorded with the innermost :class:`Evaluator` method
 on the calling thread's stack (None: outside the door). Over plans that dock (straight and behind a
 turn in place), solve the NLP, fall back to the sampler, climb the stall ladder's rung (a reverse,
-a dodge) and reach its last resort (the clearest way, and the passive one), every
+a dodge, a turn in place) and reach its last resort (the clearest way, and the passive one), every
 call must be made inside the plan's evaluator, and what the wrappers saw must be what the evaluator
 counted: the rows of the z path (``rows_costed``), the behaviours' trajectories costed
 (``trajectories_costed``) and measured (``trajectories_measured``).
@@ -17,6 +17,7 @@ with ``core.exact_cost.evaluate`` before any cycle exists, where the robot alrea
 someone and no other stage runs; every plan here starts clear.
 """
 
+import dataclasses
 import functools
 import math
 import sys
@@ -120,6 +121,11 @@ class NoNlp:
         return ()
 
 
+def stall(**changes) -> PlannerConfig:
+    config = PlannerConfig()
+    return dataclasses.replace(config, stall=dataclasses.replace(config.stall, **changes))
+
+
 def converging(reach: float) -> World:
     """Four people walking at the robot from every side (tests/test_passive.py)."""
     return World(obstacles=[
@@ -148,6 +154,8 @@ CASES = {
     "dodge": (PlannerConfig(), SOLVER, RobotState(0.0, 0.0, 0.0, 0.3, 0.0),
               World(obstacles=[DynamicObstacle.pedestrian((-1.2, 0.0), (1.3, 0.0), 0.3)]),
               (5.0, 0.0), {}, "dodging", "dodging"),
+    "turn": (stall(turn_level=0), SOLVER, RobotState(0.0, 0.0, math.pi, 0.05, 0.0), World(),
+             (3.0, 0.5), {"dock": False}, "turning", "turning in place"),
     "clearest": (PlannerConfig(), SOLVER, DRIVING,
                  World(obstacles=[DynamicObstacle.pedestrian((-1.2, 0.6), (1.0, 0.0), 0.3)]),
                  (0.0, 6.0), {}, "clearing", "the clearest way"),

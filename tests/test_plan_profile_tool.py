@@ -3,6 +3,7 @@ plan by a fresh planner (the same plans), each plan's speed over its horizon bes
 the robot drove."""
 
 import json
+import math
 
 
 def test_the_replayed_plans_are_the_logged_ones_and_their_first_speed_was_driven(capsys, tool):
@@ -19,6 +20,7 @@ def test_the_replayed_plans_are_the_logged_ones_and_their_first_speed_was_driven
         assert len(plan["speed"]) == 13                     # 25 steps of 0.2 s, every 0.4 s
         assert all(0.0 <= v <= 1.0 + 1e-9 for v in plan["speed"])
         assert len(plan["survivability"]) == 9 and plan["survivability"][0] == 1.0
+        assert math.isfinite(plan["turn_cost"])
         # The loop holds the plan's first control for its 0.25 s cycle.
         assert abs(plan["speed"][0] - plan["next_speed"]) <= 1e-3
 

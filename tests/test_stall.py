@@ -277,10 +277,11 @@ def test_arrival_at_tolerance_reads_survival_where_the_task_ends():
 @pytest.mark.parametrize("y", [0.7, 0.8])
 def test_a_person_beside_the_goal_keeps_the_robot_off_it_only_without_the_region(y):
     """Closed loop: a person stands 0.7-0.8 m beside the goal, which is free (the bodies
-    would be 0.1-0.2 m apart at it). 0.7 m off, docking only at the goal point never
-    arrives, wherever its survivability is read; docking within the task's 0.3 m tolerance
-    (the region) does. 0.8 m off, both arrive. The docking alone: the ladder climbs only for
-    a robot that stands (``stall.min_progress`` 0). The product's defaults arrive."""
+    would be 0.1-0.2 m apart at it). Docking only at the goal point with its survivability
+    read at 0.1 m from it, the robot never arrives; docking within the task's 0.3 m
+    tolerance, it does. The docking alone: the ladder climbs only for a robot that stands
+    (``stall.min_progress`` 0); the product's ladder also frees the robot that hovers. The
+    product's defaults arrive."""
     from dsmpepc_nlp.sim.simulate import simulate
     from dsmpepc_nlp.sim.types import Agent, FixedGoal, Scenario
 
@@ -289,6 +290,7 @@ def test_a_person_beside_the_goal_keeps_the_robot_off_it_only_without_the_region
                         pedestrians=(person_near_the_goal(y),), duration=15.0)
     runs = {(points, at_tolerance): (points, at_tolerance, 0.0)
             for points in (0, 8) for at_tolerance in (False, True)}
+    runs["product"] = (0, True, StallConfig.min_progress)
     configs = {key: PlannerConfig(docking=DockingConfig(region_points=points,
                                                         arrival_at_tolerance=at_tolerance),
                                   stall=StallConfig(min_progress=progress))
@@ -299,10 +301,12 @@ def test_a_person_beside_the_goal_keeps_the_robot_off_it_only_without_the_region
         episode = simulate(scenario, config, SolverConfig(method="sampling", n_samples=256),
                            np.random.default_rng(0))
         outcomes[key] = episode.outcomes[0]
-    # With the person 0.7 m off only the region frees the robot; 0.8 m off, the goal point's
-    # own way passes beside them.
-    assert outcomes[8, False] == "success" and outcomes[8, True] == "success"
-    assert outcomes[0, False] == outcomes[0, True] == ("success" if y == 0.8 else "timeout")
+    # Read at 0.1 m from its point, only the region frees the robot; read where the task ends
+    # (the product's default), the goal point's own way passes beside a person 0.8 m off.
+    assert outcomes[0, False] == "timeout" and outcomes[8, False] == "success"
+    assert outcomes[8, True] == "success"
+    assert outcomes[0, True] == ("success" if y == 0.8 else "timeout")
+    assert StallConfig.min_progress > 0.0 and outcomes["product"] == "success"
     assert outcomes["defaults"] == "success"
 
 

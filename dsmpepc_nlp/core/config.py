@@ -241,7 +241,7 @@ class PlannerConfig:
                                                     region_points=0,
                                                     arrival_at_tolerance=False))
         changes.setdefault("stall", StallConfig(levels=0, back_up=0.0, dodge=False,
-                                                  doomed_below=0.0,
+                                                  turn_to_goal=0.0, doomed_below=0.0,
                                                   threat_until_arrival=False, passive=False))
         changes.setdefault("control_law", ControlLawConfig(r_thresh_from_robot=False))
         changes.setdefault("behaviours", ("docking",))

@@ -183,6 +183,23 @@ class StallConfig:
     won on the tuning episodes
     (docs/experiments/2026-11-28-docked-plans-threat-until-arrival.md)."""
 
+    turn_to_goal: float = math.pi / 4
+    """rad (0: off): once stalled (from ``turn_level`` of the ladder on), the rung also sets
+    turns in place against the plan, each then the law (``backup.turn_trajectories``, 16):
+    toward the goal until the line to it is within this angle of the heading, then the docking
+    trajectory to it; toward the plan's own target as far, then the law to it; and 1 to 7 plan
+    periods either way, then the docking trajectory to the goal; the exact cost takes the
+    cheapest if it is cheaper than the plan. The law turns only along its curve and slows with
+    the curvature, so a robot whose way is round a person standing just ahead, or that faces
+    away from its goal, crawls or stands: CrowdNav's 'stalled-beside-person' runs stood 10 s
+    with the person 0.4 m away, and the built-in hall's follower (MPEPC) took 6 s to turn
+    round at 0.03 m/s (it still times out with the turns). Nav2's recoveries spin a stuck
+    robot in place; pi/4 is docking's angle, Nav2's rotation shim's (ours; docs/method.md
+    section 7.5). Not over a docked plan. On by default: it won on the tuning episodes
+    (docs/experiments/2026-11-27-turns-in-place-when-stalled.md)."""
+    turn_level: int = 1
+    """The ladder's level from which ``turn_to_goal`` acts: 1, once stalled for a window; 0,
+    on every plan."""
     doomed_below: float = 0.05
     """The rung's last resort (0 turns it off; it acts with the rung on, ``back_up`` > 0): a
     plan whose survival over the next ``clearance_within`` seconds (the exact cost's ``p^s``;
@@ -224,9 +241,10 @@ class StallConfig:
                                 "back_up_time": dict(low=0.0, low_open=True),
                                 "back_up_threat": dict(low=0.0, high=1.0),
                                 "dodge_within": dict(low=0.0, low_open=True),
+                                "turn_to_goal": dict(low=0.0, high=math.pi),
                                 "doomed_below": dict(low=0.0, high=1.0),
                                 "clearance_within": dict(low=0.0, low_open=True)})
-        check_integers(self, {"levels": 0, "back_up_level": 0})
+        check_integers(self, {"levels": 0, "back_up_level": 0, "turn_level": 0})
 
     def progress_gain(self, level: int) -> float:
         """The progress weight's factor at ``level`` (1 at level 0)."""

@@ -49,9 +49,8 @@ message names the overlap), the sampler while the NLP's library for this cycle's
 compiles in the background
 (``sampling-compiling``), or the stall ladder's back-up rung (``backing-up``: a reverse
 trajectory the law cannot make, cheaper by the exact cost than standing) and its dodges
-(``dodging``: a hard turn, then ahead, against a plan that expects to be struck), a turn in
-place of a stalled robot (``turning``: no longer made since the turns were removed on
-2026-12-06; kept so that stored indices keep their meaning), and its last
+(``dodging``: a hard turn, then ahead, against a plan that expects to be struck), its turn
+in place toward the goal of a stalled robot facing away from it (``turning``), and its last
 resort against a plan struck almost surely within the second, the way that keeps the widest
 gap (``clearing``), or the best exact-costed candidate when the plan's time budget ran out
 before the chosen solver finished (``deadline``). New statuses are appended, so stored indices

@@ -1,12 +1,14 @@
 """What the robot planned, cycle by cycle, in one CrowdNav episode or ETH/UCY replay: each plan's
-speed and survivability over its horizon and its stall level, beside what the robot then did.
+speed and survivability over its horizon, its stall level and the turn rung's best offer, beside
+what the robot then did.
 
 Benchmarks keep no plans, so this runs the episode (deterministic: the benchmark's outcome and
 time come back), then replays a fresh planner over the states and people it logged, cycle by
 cycle, and checks that every replayed plan's z is the logged one (``replayed``). At each
 ``--at`` time it prints the robot's state, the plan's z, status, exact cost and stall level,
-its speed every 0.4 s and survivability every 0.6 s of the horizon and at its end, and the
-speed the robot then drove at. It is how
+its speed every 0.4 s and survivability every 0.6 s of the horizon and at its end, the exact
+cost of the cheapest of the stall ladder's turns in place (turn, then the law; ``turn_cost``;
+whether the ladder offers them then or not), and the speed the robot then drove at. It is how
 docs/experiments/2026-11-29-square-invisible-stalls.md reads a stall where every plan creeps first
 and speeds up late, each next plan putting the burst off::
 
@@ -31,6 +33,8 @@ from dsmpepc_nlp.bench import crowdnav, crowds
 from dsmpepc_nlp.bench.crowdnav import SETTINGS, CrowdNavSettings
 from dsmpepc_nlp.bench.crowds import CrowdSettings
 from dsmpepc_nlp.bench.params import named_solver, overrides
+from dsmpepc_nlp.core.exact_cost import evaluate
+from dsmpepc_nlp.solve.behaviours import ways
 from dsmpepc_nlp.solve.planner import Planner
 
 EVERY = 0.4
@@ -41,6 +45,13 @@ SURVIVAL_EVERY = 0.6
 
 def _rounded(values, step: int) -> list:
     return [round(float(v), 3) for v in np.asarray(values)[::max(1, step)]]
+
+
+def turn_cost(plan, state, goal, cycle) -> float:
+    """The exact cost of the cheapest of the stall ladder's turns in place against ``plan``."""
+    turns = ways.turn_trajectories(plan, state, goal, cycle.config)
+    total = evaluate(turns, cycle.world, cycle.goal, cycle.config).total
+    return float(np.min(np.where(np.isfinite(total), total, np.inf)))
 
 
 def profile(settings, episode: int, seed: int, times, variant="ds-mpepc"):
@@ -67,6 +78,7 @@ def profile(settings, episode: int, seed: int, times, variant="ds-mpepc"):
                 "speed": _rounded(plan.trajectory.v, round(EVERY / dt)),
                 "survivability": _rounded(plan.cost.survivability, round(SURVIVAL_EVERY / dt)),
                 "survivability_end": round(float(plan.cost.survivability[-1]), 3),
+                "turn_cost": turn_cost(plan, state, goal, planner.last_evaluator.cycle),
                 "next_speed": round(float(log.states[0, k + 1, 3]), 3)}
     plans = [found.get(k, {"time": t, "planned": False}) for k, t in wanted.items()]
     return {"outcome": log.outcomes[0], "time": float(log.outcome_times[0]),

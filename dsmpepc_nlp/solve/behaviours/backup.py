@@ -12,7 +12,8 @@ reverse trajectories against it, costed by the same exact cost through the plan'
 (``Evaluator.evaluate_trajectories``), and takes the cheapest when it is cheaper than the plan.
 ``StallConfig.back_up`` (m/s; 0 = off) and ``back_up_time``; docs/method.md section 7.5. With
 them come forward dodges against a plan the robot expects to be struck on
-(``StallConfig.dodge``). The rung's last resort is :mod:`.last_resort`.
+(``StallConfig.dodge``) and, once stalled, turns in place each followed by the law
+(``StallConfig.turn_to_goal``). The rung's last resort is :mod:`.last_resort`.
 """
 
 from __future__ import annotations
@@ -33,6 +34,8 @@ from .ways import (
     dodge_named,
     replaced,
     reverse_named,
+    turn_named,
+    turn_trajectories,
 )
 
 
@@ -66,8 +69,9 @@ def moves(plan: Plan, state, evaluator: Evaluator, level: int, arrival: float = 
     """The rung's moves against ``plan``, or None (keep it), every way costed by the plan's
     ``evaluator`` (its cycle's world, goal and config): reverse trajectories when the plan
     stands and the ladder is at ``back_up_level`` or above or the plan is :func:`threatened`;
-    forward dodges (``stall.dodge``) when it is threatened, standing or not. A docked plan's
-    threat is read at ``arrival`` (its
+    forward dodges (``stall.dodge``) when it is threatened, standing or not; turns in place
+    (``stall.turn_to_goal``, :func:`turn_trajectories`) when the ladder is at ``turn_level``
+    or above and the plan is not docked. A docked plan's threat is read at ``arrival`` (its
     :func:`arrival_time`, s). The cheapest of them by the exact cost replaces the plan if it
     is cheaper. ``ways``: this cycle's :class:`Ways` if already made (the chain's
     :class:`~.chain.Recovery` shares them with the last resort)."""
@@ -80,8 +84,12 @@ def moves(plan: Plan, state, evaluator: Evaluator, level: int, arrival: float = 
     reverse = (back_up_speed(config) > 0.0 and stands(plan, config) and (stalled or threat)
                and len(ways.reverses) > 0)
     dodge = stall.dodge and threatened(plan, config, min(stall.dodge_within, arrival))
+    # A docked plan already heads for the goal, turning in place first where it must.
+    turn = (level >= stall.turn_level and stall.turn_to_goal > 0.0
+            and plan.status != "docked")
     sets = ([("reverse", ways.reverses)] if reverse else []) + (
-        [("dodge", ways.dodges)] if dodge else [])
+        [("dodge", ways.dodges)] if dodge else []) + (
+        [("turn", turn_trajectories(plan, state, cycle.goal, config))] if turn else [])
     if not sets:
         return None
     candidates = stacked([t for _, t in sets])
@@ -94,7 +102,13 @@ def moves(plan: Plan, state, evaluator: Evaluator, level: int, arrival: float = 
     ends = np.cumsum([len(t.z) for _, t in sets])
     which = int(np.searchsorted(ends, best, side="right"))      # the set it came from
     kind, first = sets[which][0], best - (int(ends[which - 1]) if which else 0)
-    if kind == "reverse" and stalled:
+    if kind == "turn":
+        off = abs(float(docking.off_the_line(state.pose, cycle.goal)))
+        why = f"stalled, facing {off:.2f} rad away from the goal"
+        name = turn_named(first, chosen, plan)
+        what = (f"turning in place {name}, then heading to "
+                f"{'it' if name.startswith('toward') else 'the goal'}")
+    elif kind == "reverse" and stalled:
         why = "stalled and the plan stood"
     else:
         within = arrival if kind == "reverse" else min(stall.dodge_within, arrival)  # as read
@@ -102,11 +116,13 @@ def moves(plan: Plan, state, evaluator: Evaluator, level: int, arrival: float = 
         why = (f"the plan {'stood' if stands(plan, config) else 'went'} where it expects to be "
                f"struck{soon} (survival {survival_within(plan, config, within):.2f} < "
                f"{stall.back_up_threat:g})")
-    what = (reverse_named(int(ways.reverse_rows[first]), config) if kind == "reverse"
-            else dodge_named(chosen))
+    if kind == "reverse":
+        what = reverse_named(int(ways.reverse_rows[first]), config)
+    elif kind == "dodge":
+        what = dodge_named(chosen)
     message = (f"{why} (exact cost {plan.fun:.3f}): {what} (exact cost {total[best]:.3f}); "
                f"it replaced: {plan.message}")
-    status = {"reverse": "backing-up", "dodge": "dodging"}[kind]
+    status = {"reverse": "backing-up", "dodge": "dodging", "turn": "turning"}[kind]
     return replaced(plan, chosen, costs[best], message, status, config)
 
 

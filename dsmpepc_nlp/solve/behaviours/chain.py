@@ -10,9 +10,9 @@ without a tree library); each also has the switch and parameters of its own fiel
   second, the way that keeps the widest gap, or where every way touches someone the one that
   drives least toward them (:func:`.last_resort.clearest`; ``stall.doomed_below``,
   ``stall.passive``).
-- ``moves`` runs on it too: reverses and dodges set against a plan that stands stalled or
-  expects to be struck, the cheapest by the exact cost when cheaper (:func:`.backup.moves`;
-  ``stall.back_up``, ``stall.dodge``).
+- ``moves`` runs on it too: reverses, dodges and turns in place set against a plan that
+  stands, expects to be struck or is stalled, the cheapest by the exact cost when cheaper
+  (:func:`.backup.moves`; ``stall.back_up``, ``stall.dodge``, ``stall.turn_to_goal``).
 
 The behaviours that run on the plan take their turn in the configured order and the first that
 replaces the plan ends the chain, as a behaviour tree's fallback node. Both act only with the

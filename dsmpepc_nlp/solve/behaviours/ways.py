@@ -1,7 +1,7 @@
 """The ways a robot can move that the pose-following law cannot make, for the back-up rung
 (:mod:`.backup`) and its last resort (:mod:`.last_resort`): reverses within the robot's declared
-``reverse_limit`` and forward dodges; the batch helpers and the words a plan's message names
-them by."""
+``reverse_limit``, forward dodges, and turns in place each followed by the law; the batch
+helpers and the words a plan's message names them by."""
 
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ from ...core.control_law import Trajectory, commanded
 from ...core.geometry import footprint_points
 from ..plan import Plan
 from ..start_state import bounded_control
+from . import docking
 
 TURN_RADIUS = 1.0
 """m: the curving back-ups turn at this radius (omega = speed / radius), either way."""
@@ -72,6 +73,29 @@ def dodge_trajectories(state, config: PlannerConfig) -> Trajectory:
     return commanded(state, config, np.array(commands))
 
 
+def turn_trajectories(plan: Plan, state, goal, config: PlannerConfig) -> Trajectory:
+    """The turns in place of a stalled robot (``stall.turn_to_goal``): toward the goal until
+    within ``turn_to_goal`` of the line to it, then the docking trajectory to it; toward the
+    plan's own target as far, then the law to it at the plan's ``v_max`` (the way the plan
+    meant, without the crawl round: the law slows with its curvature); and 1 to
+    :data:`DODGE_TURN_STEPS` - 1 plan periods either way, then the docking trajectory to the
+    goal (round a person standing on the line to it). 16 in all
+    (:func:`.docking.turn_toward`, :func:`.docking.turns_then_law`)."""
+    limit = config.stall.turn_to_goal
+    target = np.asarray(plan.trajectory.target, dtype=float)
+    # One turning rollout a side serves every way, each cut where its turn ends; the law's
+    # rollouts after them run as one batch.
+    turnings = {sign: docking.turn_in_place(state, config, sign) for sign in (1.0, -1.0)}
+    cuts = [(*docking.turn_toward(state, goal, config, limit, turnings), None, None)]
+    if np.all(np.isfinite(target)):
+        cuts.append((*docking.turn_toward(state, target[:2], config, limit, turnings), target,
+                     float(plan.x[3])))
+    cuts += [(turning, steps, None, None) for turning in turnings.values()
+             for steps in range(1, DODGE_TURN_STEPS)]          # 1..7 periods either way
+    return docking.turns_then_law(config, cuts, goal)
+
+
+
 class Ways:
     """This cycle's dodges and reverses from ``state``, each built once, when first read (a
     doomed plan that stays the clearest meets the same ways again in :func:`.backup.moves`).
@@ -113,6 +137,17 @@ def reverses_seen(trajectories: Trajectory, world, config: PlannerConfig) -> np.
     seen = check(centres) & check(rear)                                          # (n, N, C)
     reversing = np.asarray(trajectories.v) < 0.0                                 # (n, N)
     return np.all(seen.all(axis=-1) | ~reversing, axis=1)
+
+
+
+def turn_named(index: int, chosen: Trajectory, plan: Plan) -> str:
+    """Which of :func:`turn_trajectories` row ``index`` is, in words (the plan's target has
+    a row only when it is finite)."""
+    if index == 0:
+        return "toward the goal"
+    if index == 1 and np.all(np.isfinite(plan.trajectory.target)):
+        return "toward the plan's target"
+    return "left" if chosen.omega[0] > 0 else "right"
 
 
 
