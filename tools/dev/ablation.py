@@ -42,6 +42,7 @@ EXTENSIONS = {
     "back-up": ("stall.back_up=0",),
     "threat-gate": ("stall.back_up_threat=0",),
     "dodge": ("stall.dodge=0",),
+    "turn-to-goal": ("stall.turn_to_goal=0",),
     "last-resort": ("stall.doomed_below=0",),
     "threat-until-arrival": ("stall.threat_until_arrival=0",),
     "passive": ("stall.passive=0",),
