@@ -318,13 +318,11 @@ class Planner:
         """The behaviours that run on ``plan`` (:mod:`.behaviours.chain`), in the configured
         order, each a stage under the time budget (:meth:`_timed`); the first plan one returns
         replaces ``plan``."""
-        recovery = chain.Recovery(plan, state, evaluator, level, goal_tolerance)
-        for name in self.on_plan:
-            stage = f"the {name.replace('-', ' ')}"
-            replaced = self._timed(trouble, deadline, stage, chain.ON_PLAN[name], recovery)
-            if replaced is not None:
-                return replaced
-        return plan
+        def timed(stage, behaviour, recovery):
+            return self._timed(trouble, deadline, stage, behaviour, recovery)
+
+        return chain.recover(plan, state, evaluator, level, goal_tolerance, self.on_plan,
+                             timed) or plan
 
     def _count_fallback(self, plan: Plan) -> int:
         self._fallbacks = self._fallbacks + 1 if plan.status in FALLBACK_STATUSES else 0

@@ -95,16 +95,21 @@ def moves(recovery: Recovery) -> Plan | None:
 ON_PLAN = {"last-resort": last_resort, "moves": moves}
 """Each behaviour that runs on the plan, by name: ``Recovery -> Plan or None``."""
 
+STAGES = {"last-resort": "the last resort", "moves": "the moves"}
+"""Each behaviour's stage name in a plan's message and ``Plan.cut``."""
 
-def recover(plan: Plan, state, evaluator: Evaluator, level: int,
-            goal_tolerance: float = 0.0) -> Plan | None:
-    """The behaviours that run on ``plan`` under its evaluator's config, in order: the first
-    plan one of them returns, or None (keep ``plan``). ``Planner.plan`` runs the same chain
-    one behaviour at a time, each under the time budget."""
-    config = evaluator.cycle.config
+
+def recover(plan: Plan, state, evaluator: Evaluator, level: int, goal_tolerance: float = 0.0,
+            names=None, run=None) -> Plan | None:
+    """The behaviours that run on ``plan``, in order (``names``; default: those its
+    evaluator's config enables): the first plan one of them returns, or None (keep ``plan``).
+    ``run(stage, behaviour, recovery)``, when given, runs each (``Planner.plan`` runs each as
+    a stage under the time budget, named by :data:`STAGES`); by default it is called."""
+    names = configured(evaluator.cycle.config)[1] if names is None else names
     recovery = Recovery(plan, state, evaluator, level, goal_tolerance)
-    for name in configured(config)[1]:
-        replaced = ON_PLAN[name](recovery)
+    for name in names:
+        replaced = (ON_PLAN[name](recovery) if run is None
+                    else run(STAGES[name], ON_PLAN[name], recovery))
         if replaced is not None:
             return replaced
     return None

@@ -7,10 +7,9 @@ sampler. Behind it, side by side, are the two engines of :func:`evaluate_batch`:
 kernel (:mod:`.exact`) when it is loaded and the z lie inside the reach the cycle's culling
 rests on, and the numpy reference (:func:`~dsmpepc_nlp.core.exact_cost.evaluate`) otherwise;
 they agree to 1e-9 (held by tests). The behaviours' trajectories that no z makes (reverses,
-dodges, turns in place, a brake, docking's turn-then-law splices)
-are costed through :meth:`Evaluator.evaluate_trajectories` (the kernel as given, else the numpy
-reference), and the last
-resort's gaps are measured through :meth:`Evaluator.geometry` and
+dodges, turns in place, a brake, docking's turn-then-law splices) are costed through
+:meth:`Evaluator.evaluate_trajectories` (the kernel as given, else the numpy reference), and the
+last resort's gaps are measured through :meth:`Evaluator.geometry` and
 :meth:`Evaluator.circle_gaps` (tests/test_one_door.py holds every stage to this door).
 
 The evaluator keeps every batch it costs for the cycle, so a z costed once is never costed
@@ -156,11 +155,11 @@ class Evaluator:
 
     def evaluate_trajectories(self, trajectories: Trajectory) -> CostBreakdown:
         """The exact cost of ``trajectories`` (a batch, or one: the breakdown is batched like
-        them) that no z of the law makes, on the cycle's world, goal and config: the compiled kernel
-        costs them as given (:func:`.loader.cost_given`) on the cycle's horizon when their
-        speeds stay within ``[0, v_limit]`` (:func:`.loader.given_in_reach`), else the numpy
-        reference. Never kept for reading
-        back; counted in ``trajectories_costed``."""
+        them) that no z of the law makes, on the cycle's world, goal and config: the compiled
+        kernel costs them as given (:func:`.loader.cost_given`) when they are on the cycle's
+        horizon and never faster than ``v_limit`` either way (:func:`.loader.given_in_reach`),
+        else the numpy reference. Never kept for reading back; counted in
+        ``trajectories_costed``."""
         cycle = self.cycle
         single = trajectories.poses.ndim == 2
         batch = stacked([trajectories]) if single else trajectories
