@@ -136,9 +136,8 @@ def test_empty_grids_and_grids_becoming_empty():
     grid = fresh(occ, 0.1, (0.0, 0.0))
     np.testing.assert_array_equal(grid.signed_distance, FAR)
     occ[4, 6] = True
-    grid = follow(grid, occ, (1, 0))                  # from empty: computed afresh
-    np.testing.assert_array_equal(grid.signed_distance, fresh(occ, 0.1, grid.origin)
-                                  .signed_distance)
+    grid = follow(grid, occ, (1, 0))                  # from empty: updated all the same
+    assert_updated_signed_distance(grid)
     grid = follow(grid, moved(occ, -2, 1) | (np.arange(15) == 14), (-2, 1))
     assert_updated_signed_distance(grid)
     grid = follow(grid, np.zeros((12, 15), dtype=bool), (0, 3))   # becomes empty
@@ -343,6 +342,36 @@ def test_a_world_per_cycle_finds_the_previous_grids_navigation(monkeypatch):
         grid = follow(grid, edited(rng, moved(grid.occupied, 1, 0), 4), (1, 0))
         robot = robot + [0.05, 0.0]
     assert repairs.made == 2      # the first update has only a fresh grid's function before it
+
+
+@compiled
+def test_grids_updated_from_an_empty_one_match_fresh_grids_to_the_bit():
+    """A local map's first grid is an update of an empty window (cheaper than a transform)."""
+    rng = np.random.default_rng(21)
+    for _ in range(40):
+        shape = tuple(rng.integers(1, 40, 2))
+        occ = rng.random(shape) < rng.choice([0.002, 0.02, 0.2, 0.7])
+        occ.flat[rng.integers(occ.size)] = True
+        empty = fresh(np.zeros(shape, dtype=bool), 0.1, (0.0, 0.0))
+        _ = empty.signed_distance
+        shift = [int(rng.integers(-n + 1, n)) for n in shape[::-1]]     # some cells shared
+        assert_updated_signed_distance(follow(empty, occ, shift))
+
+
+def test_a_local_maps_first_grid_is_an_update_with_fresh_values():
+    from dsmpepc_nlp.perception import LaserScan, LocalMap, LocalMapConfig
+
+    local_map = LocalMap(LocalMapConfig(size=6.0))
+    angles = np.linspace(-2.3, 2.3, 360)
+    ranges = np.where(np.abs(angles) < 0.4, 1.5 / np.cos(angles), np.inf)   # a wall ahead
+    local_map.update(LaserScan.from_angles(ranges, angles, 0.1, 30.0, (0.0, 0.0, 0.0), 0.0))
+    grid = local_map.grid()
+    assert grid.is_update and grid.occupied.any()
+    expected = fresh(grid.occupied, grid.resolution, grid.origin)
+    np.testing.assert_array_equal(grid.signed_distance, expected.signed_distance)
+    nav = NavigationFunction([2.5, 0.5], grid, 0.2)
+    np.testing.assert_allclose(nav.values, NavigationFunction([2.5, 0.5], expected, 0.2).values,
+                               rtol=0, atol=1e-9)
 
 
 @compiled

@@ -96,7 +96,7 @@ def squares_of(grid, module):
 def updated_signed_distance(grid, previous):
     """The signed distance of ``grid`` (m, (ny, nx), read-only) updated from that of
     ``previous``, or None when this cannot be done (no compiled kernels, ``previous``'s not
-    computed, not on one lattice, either grid without an occupied cell, no cell shared); the
+    computed, not on one lattice, the new grid without an occupied cell, no cell shared); the
     caller then computes it from scratch. Keeps its squared distances on ``grid``, for the
     grid made from it next."""
     module = kernels()
@@ -106,7 +106,7 @@ def updated_signed_distance(grid, previous):
         return None
     shift = lattice_shift(previous.origin, grid.origin, grid.resolution)
     occ = grid.occupied
-    if shift is None or not occ.any() or not previous.occupied.any():
+    if shift is None or not occ.any():
         return None
     parts = overlap(occ.shape, previous.shape, shift)
     if parts is None:

@@ -18,6 +18,13 @@ counts other processes' time) and the largest differences between the two ways::
 
     python tools/dev/bench_map_updates.py
     python tools/dev/bench_map_updates.py --steps 200 --json
+
+``--first`` times a local map's first grid instead (each drive's first scan, one drive a
+seed): from scratch, against the local map's own way (:meth:`SensedGrid.build` without a
+previous grid: an update of an empty window)::
+
+    python tools/dev/bench_map_updates.py --first --steps 20
+    python tools/dev/bench_map_updates.py --first --steps 20 --density 0   # an open world
 """
 
 from __future__ import annotations
@@ -31,6 +38,7 @@ import numpy as np
 from dsmpepc_nlp.core.grid import OccupancyGrid
 from dsmpepc_nlp.core.navigation import NavigationFunction
 from dsmpepc_nlp.perception import LaserScan, LocalMap, LocalMapConfig
+from dsmpepc_nlp.perception.sensed_grid import SensedGrid
 
 BEAMS = 720
 FIELD_OF_VIEW = 1.5 * np.pi
@@ -54,6 +62,8 @@ def cylinders(rng, density):
 
 def ranges(pose, headings, centres, radii, rng):
     """Lidar ranges (m) from ``pose`` along ``headings`` to the cylinders, inf beyond range."""
+    if not len(radii):
+        return np.full(len(headings), np.inf)
     direction = np.stack([np.cos(headings), np.sin(headings)], -1)
     rel = centres - pose[:2]
     along = direction @ rel.T
@@ -132,6 +142,49 @@ def run(steps, warmup, seed, density) -> dict:
     return _summary(np.array(rows, dtype=float), worst_sd, worst_nav)
 
 
+def run_first(steps, seed, density) -> dict:
+    """A fresh drive's first grid, ``steps`` drives: from scratch and as the local map builds
+    it, alternated; per-way milliseconds and the largest differences."""
+    rows, worst_sd, worst_nav = [], 0.0, 0.0
+    for i in range(steps):
+        grid, pose = next(drive(1, seed + i, density))
+        goal = pose[:2] + [9.0, 0.0]
+        ways = {"full": lambda g=grid: OccupancyGrid.derived(g.occupied, g.resolution, g.origin),
+                "first": lambda g=grid: SensedGrid.build(g.occupied, g.resolution, g.origin,
+                                                        np.zeros(g.shape, dtype=bool))}
+        results = {name: _timed(ways[name], goal, pose)
+                   for name in (sorted(ways) if i % 2 else sorted(ways, reverse=True))}
+        full, first = results["full"], results["first"]
+        worst_sd = max(worst_sd, float(np.max(np.abs(full[0].signed_distance
+                                                     - first[0].signed_distance))))
+        worst_nav = max(worst_nav, float(np.max(np.abs(full[1].values - first[1].values))))
+        rows.append((*full[2:4], *first[2:4], int(grid.occupied.sum())))
+    full_sd, full_nav, sd, nav, marked = np.array(rows, dtype=float).T
+    return {"drives": steps, "marked_cells": _stats(marked),
+            "full_ms": {"signed_distance": _stats(full_sd), "navigation": _stats(full_nav),
+                        "both": _stats(full_sd + full_nav)},
+            "first_ms": {"signed_distance": _stats(sd), "navigation": _stats(nav),
+                         "both": _stats(sd + nav)},
+            "largest_difference_m": {"signed_distance": worst_sd, "navigation": worst_nav}}
+
+
+def report_first(result) -> str:
+    """:func:`run_first`'s result as a table."""
+    full, first = result["full_ms"], result["first_ms"]
+    lines = [f"first grids of {result['drives']} drives, 400 x 400 cells at 0.05 m, marked "
+             f"cells median {result['marked_cells']['median']:.0f}",
+             f"{'ms (wall clock)':22s} {'full median':>11s} {'p95':>8s}   "
+             f"{'first median':>12s} {'p95':>8s}"]
+    for key, label in (("signed_distance", "signed distance"), ("navigation", "navigation"),
+                       ("both", "both")):
+        lines.append(f"{label:22s} {full[key]['median']:11.2f} {full[key]['p95']:8.2f}   "
+                     f"{first[key]['median']:12.2f} {first[key]['p95']:8.2f}")
+    worst = result["largest_difference_m"]
+    lines.append(f"largest difference: signed distance {worst['signed_distance']:.3g} m, "
+                 f"navigation function {worst['navigation']:.3g} m")
+    return "\n".join(lines)
+
+
 def _stats(values) -> dict:
     return {"median": float(np.median(values)), "p95": float(np.percentile(values, 95))}
 
@@ -180,8 +233,14 @@ def main(argv=None) -> None:
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--density", type=float, default=0.15,
                         help="cylinders per square metre (default 0.15)")
+    parser.add_argument("--first", action="store_true",
+                        help="time a local map's first grid, one drive a step")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     args = parser.parse_args(argv)
+    if args.first:
+        result = run_first(args.steps, args.seed, args.density)
+        print(json.dumps(result) if args.json else report_first(result))
+        return
     result = run(args.steps, args.warmup, args.seed, args.density)
     print(json.dumps(result) if args.json else report(result))
 
