@@ -38,7 +38,7 @@ class SensedGrid(OccupancyGrid):
         ``python tools/dev/bench_map_updates.py --first``)."""
         if previous is None:
             previous = cls.derived(np.zeros(np.shape(occupied), dtype=bool), resolution, origin)
-            previous.signed_distance            # all free: no transform to run
+            _ = previous.signed_distance        # all free: no transform to run
         grid = cls.updated_from(previous, occupied, origin)
         grid._seen = np.array(seen, dtype=bool)
         if grid._seen.shape != grid.shape:
