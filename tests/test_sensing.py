@@ -208,6 +208,38 @@ def test_a_sensed_episode_plans_on_belief_and_logs_it(profile, tmp_path):
     assert np.array_equal(loaded.believed_states, believed, equal_nan=True)
 
 
+@pytest.mark.parametrize("profile", ["lidar", "tracked"])
+def test_the_people_the_robot_planned_with_are_logged_and_drawn(profile, tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from dsmpepc_nlp.viz.plots import episode_figure
+
+    episode = simulate(_short(duration=4.0), PlannerConfig(), SAMPLER,
+                       np.random.default_rng(2), sensing=profile)
+    people = episode.believed_people
+    assert people.ndim == 4 and people.shape[:2] == (1, episode.n_cycles)
+    assert people.shape[3] == 5 and people.shape[2] >= 1
+    rows = [(k, row) for k in range(episode.n_cycles) for row in people[0, k]
+            if np.isfinite(row[0])]
+    assert rows, "the walker was never planned with"
+    for k, (x, y, vx, vy, radius) in rows:
+        gaps = np.hypot(*(episode.ped_positions[k] - [x, y]).T)
+        j = int(np.argmin(gaps))
+        if profile == "lidar":          # the truth, placed by an exact pose
+            assert gaps[j] < 1e-9 and radius == episode.ped_radii[j]
+            assert np.allclose([vx, vy], episode.ped_velocities[k, j])
+        else:                           # a track: near the walker, drawn at least as wide
+            assert gaps[j] < 0.6 and radius >= episode.ped_radii[j] - 1e-9
+    loaded = type(episode).load(episode.save(tmp_path / "e.npz"))
+    assert np.array_equal(loaded.believed_people, people, equal_nan=True)
+    figure = episode_figure(loaded, cycle=rows[-1][0])
+    dashed = [p for p in figure.axes[0].patches
+              if p.get_linestyle() == "--" and p.get_edgecolor()[:3] == matplotlib.colors
+              .to_rgb("darkorange")]
+    assert len(dashed) == np.sum(np.isfinite(people[0, rows[-1][0], :, 0]))
+
+
 def test_a_collision_with_what_the_robot_never_perceived_is_named():
     lidar = SensingProfile("lidar", lidar=LidarSettings(range_noise=0.0))
     senses = _senses(lidar, _walled(1.2))

@@ -30,7 +30,7 @@ _ARRAYS = (
     "times", "states", "active", "goals", "z", "cost_total", "cost_terms", "survivability",
     "ttg", "ttc_terminal", "status", "nit", "plan_time", "n_starts", "plan_poses",
     "ped_positions", "ped_velocities", "ped_radii", "grid_occupied", "grid_resolution",
-    "grid_origin", "believed_states", "believed_occupied", "out_of_time",
+    "grid_origin", "believed_states", "believed_occupied", "believed_people", "out_of_time",
 )
 
 
@@ -86,6 +86,11 @@ class Episode:
         Under a profile with a lidar, each robot's local map at the end of the run, its lower
         left corner at ``meta["believed_origin"][robot]`` and cells ``meta["believed_resolution"]``
         m wide (:meth:`believed_grid`).
+    believed_people : ndarray, (R, K, M, 5) or None
+        Under a sensing profile, the people each robot planned with at each cycle, as it
+        believed them (a tracker's tracks, or the truth placed by its believed pose): rows
+        ``[x, y, vx, vy, radius]`` (m, m/s; the radius as handed to the planner, a track's
+        inflation included), NaN-padded to the most people of any cycle.
     meta : dict
         JSON-able: scenario name, map path, variant, solver, seed, dt, robot names, footprints,
         goal kinds, parked robots, the planner configuration.
@@ -118,6 +123,7 @@ class Episode:
     samples: dict = field(default_factory=dict)
     believed_states: np.ndarray | None = None
     believed_occupied: np.ndarray | None = None
+    believed_people: np.ndarray | None = None
     out_of_time: np.ndarray | None = None
 
     term_names = TERM_NAMES

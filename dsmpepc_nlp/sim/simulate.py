@@ -118,6 +118,7 @@ class _Loop:
             Senses(self.sensing, c, scenario.grid, np.random.default_rng(rng.integers(2**63)))
             for c in self.configs]
         self.hist_believed = []
+        self.hist_believed_people = []         # per cycle: robot -> (m, 5) people it planned with
         self.perception = [None] * self.n      # at a collision: what it touched, believed?
         self.base_world = World(scenario.grid)
         self.parked = [DynamicObstacle.robot(p.pose, (0.0, 0.0), p.footprint)
@@ -209,8 +210,9 @@ class _Loop:
         ped_pos, ped_vel = self.hist_ped[-1]
         ped_obs = [DynamicObstacle.pedestrian(p, v, ped.radius)
                    for p, v, ped in zip(ped_pos, ped_vel, self.peds)]
-        plans, believed = {}, {}
+        plans, believed, believed_people = {}, {}, {}
         self.hist_believed.append(believed)
+        self.hist_believed_people.append(believed_people)
         for i in range(self.n):
             if self.outcomes[i] is not None:
                 continue
@@ -224,6 +226,9 @@ class _Loop:
                 state, world = self.senses[i].perceive(self.times[-1], self.states[i], people,
                                                        others + self.parked)
                 believed[i] = np.array([state.x, state.y, state.phi, state.v, state.omega])
+                believed_people[i] = np.array(
+                    [[*o.centers[0], *o.velocity, o.radii[0]] for o in world.obstacles
+                     if o.kind == "pedestrian"], dtype=float).reshape(-1, 5)
             sample = k in record_samples
             fixed = self.agents[i].goal.kind == "fixed"
             dock = fixed or self.configs[i].docking.follow
@@ -359,6 +364,7 @@ def _episode(loop: _Loop, arrays: dict, samples: dict, config, solver) -> Episod
     if loop.senses is not None:
         meta["sensing"] = loop.sensing.as_dict()
         extra["believed_states"] = _believed(loop)
+        extra["believed_people"] = _believed_people(loop)
         meta["sensing_counts"] = [dict(s.counts) for s in loop.senses]
         meta["perception"] = loop.perception
         if loop.senses[0].local_map is not None:
@@ -378,6 +384,18 @@ def _episode(loop: _Loop, arrays: dict, samples: dict, config, solver) -> Episod
         grid_origin=None if grid is None else np.array(grid.origin),
         outcomes=loop.outcomes, outcome_times=loop.outcome_times, meta=meta, samples=samples,
         **arrays, **extra)
+
+
+def _believed_people(loop: _Loop) -> np.ndarray:
+    """(R, K, M, 5): the people each robot planned with at each cycle, ``[x, y, vx, vy,
+    radius]``, NaN-padded to the most of any cycle (M may be 0)."""
+    most = max((len(p) for cycle in loop.hist_believed_people for p in cycle.values()),
+               default=0)
+    out = np.full((loop.n, len(loop.hist_believed_people), most, 5), np.nan)
+    for k, cycle in enumerate(loop.hist_believed_people):
+        for i, people in cycle.items():
+            out[i, k, :len(people)] = people
+    return out
 
 
 def _believed(loop: _Loop) -> np.ndarray:

@@ -20,7 +20,15 @@ from matplotlib.patches import Circle
 from ..core.errors import seconds
 from ..core.files import atomic_savefig
 from ..sim.outcomes import OutcomeConfig
-from .plots import _footprint, _limits, draw_believed_map, draw_cost_panel, draw_map, on_stage
+from .plots import (
+    _footprint,
+    _limits,
+    draw_believed_map,
+    draw_believed_people,
+    draw_cost_panel,
+    draw_map,
+    on_stage,
+)
 
 EVIDENCE_KEYS = ("collision_kind", "contact_time", "touched", "start_gap", "robot_speed",
                  "approach_speed", "contact_age", "escape", "net_displacement",
@@ -70,6 +78,7 @@ def draw_scene(ax, episode, failure: dict, label: str) -> None:
         if np.all(np.isfinite(trace[min(k, len(trace) - 1)])):
             ax.add_patch(Circle(episode.ped_positions[k, j], radius, color=colour, alpha=0.8,
                                 zorder=3))
+    draw_believed_people(ax, episode, robot, k)
     _footprint(ax, episode.states[robot, k, :3], episode.footprint(robot), "tab:blue", 0.6)
     goal = episode.goals[robot, k]
     ax.plot(goal[0], goal[1], marker="x", color="tab:green", ms=9, mew=2, zorder=5)
@@ -111,6 +120,8 @@ LEGEND = (Line2D([], [], color="tab:blue", lw=1.2, label="robot path"),
           Line2D([], [], color="darkred", marker="o", ls="", label="person in evidence"),
           Line2D([], [], color="darkred", marker="o", ls="", mfc="none", ms=10,
                  label="person touched, at the contact"),
+          Line2D([], [], color="darkorange", marker="o", ls="", mfc="none", ms=10,
+                 label="person as believed (sensed runs)"),
           Line2D([], [], color="magenta", lw=2, label="narrowest gap"),
           Line2D([], [], color="black", marker="*", ls="", ms=10, label="contact"))
 

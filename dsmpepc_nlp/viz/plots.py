@@ -212,14 +212,35 @@ def draw_believed_map(ax, episode, robot: int = 0) -> None:
     ax.plot([], [], color="darkorange", lw=6, alpha=0.55, label="believed map (end of run)")
 
 
+def draw_believed_people(ax, episode, robot: int, cycle: int) -> None:
+    """Under a sensing profile, the people robot ``robot`` planned with at ``cycle`` (its last
+    plan up to then): dashed orange circles, as wide as the planner drew them, each with a
+    line to where it believed the person would be 1 s later."""
+    people = getattr(episode, "believed_people", None)
+    if people is None or people.shape[1] == 0:
+        return
+    k = min(max(cycle, 0), people.shape[1] - 1)
+    while k > 0 and not np.isfinite(episode.believed_states[robot, k, 0]):
+        k -= 1
+    label = "believed people, 1 s ahead (dashed)"
+    for x, y, vx, vy, radius in people[robot, k]:
+        if not np.isfinite(x):
+            continue
+        ax.add_patch(Circle((x, y), radius, fill=False, ls="--", lw=1.2, color="darkorange",
+                            zorder=5, label=label))
+        ax.plot([x, x + vx], [y, y + vy], color="darkorange", lw=1.0, zorder=5)
+        label = None
+
+
 def draw_belief(ax, episode, cycle: int) -> None:
     """Under a sensing profile, where each robot believed it was at every plan up to
-    ``cycle`` (dashed, in the robot's colour) beside the true path the frame draws, and the
-    first robot's believed map."""
+    ``cycle`` (dashed, in the robot's colour) beside the true path the frame draws, the
+    first robot's believed map and the people it planned with at ``cycle``."""
     believed = getattr(episode, "believed_states", None)
     if believed is None:
         return
     draw_believed_map(ax, episode, 0)
+    draw_believed_people(ax, episode, 0, cycle)
     label = f"believed path ({episode.meta.get('sensing', {}).get('name', 'sensed')})"
     for i in range(episode.n_robots):
         path = believed[i, :cycle]
@@ -322,6 +343,7 @@ def animate(episode, path, *, fps: int | None = None, stride: int = 1):
     def draw(k):
         ax.clear()
         draw_cycle(ax, episode, k)
+        draw_belief(ax, episode, k)
         return []
 
     path.parent.mkdir(parents=True, exist_ok=True)
