@@ -31,6 +31,7 @@ from ..core.world import DynamicObstacle, World
 from ..solve.plan import STATUSES
 from ..solve.planner import Planner
 from ..solve.policy import PlanningPolicy
+from .belief import belief_log
 from .checks import start_states
 from .episode import Episode, config_to_dict, robot_obstacle
 from .outcomes import (
@@ -362,16 +363,8 @@ def _episode(loop: _Loop, arrays: dict, samples: dict, config, solver) -> Episod
     }
     extra = {}
     if loop.senses is not None:
-        meta["sensing"] = loop.sensing.as_dict()
-        extra["believed_states"] = _believed(loop)
-        extra["believed_people"] = _believed_people(loop)
-        meta["sensing_counts"] = [dict(s.counts) for s in loop.senses]
-        meta["perception"] = loop.perception
-        if loop.senses[0].local_map is not None:
-            grids = [s.local_map.grid() for s in loop.senses]
-            extra["believed_occupied"] = np.stack([g.occupied for g in grids])
-            meta["believed_origin"] = [g.origin.tolist() for g in grids]
-            meta["believed_resolution"] = grids[0].resolution
+        extra = belief_log(loop.senses, loop.sensing, loop.perception, loop.hist_believed,
+                           loop.hist_believed_people, meta)
     n_times = len(loop.times)
     return Episode(
         times=np.array(loop.times), states=np.array(loop.hist_states),
@@ -384,25 +377,3 @@ def _episode(loop: _Loop, arrays: dict, samples: dict, config, solver) -> Episod
         grid_origin=None if grid is None else np.array(grid.origin),
         outcomes=loop.outcomes, outcome_times=loop.outcome_times, meta=meta, samples=samples,
         **arrays, **extra)
-
-
-def _believed_people(loop: _Loop) -> np.ndarray:
-    """(R, K, M, 5): the people each robot planned with at each cycle, ``[x, y, vx, vy,
-    radius]``, NaN-padded to the most of any cycle (M may be 0)."""
-    most = max((len(p) for cycle in loop.hist_believed_people for p in cycle.values()),
-               default=0)
-    out = np.full((loop.n, len(loop.hist_believed_people), most, 5), np.nan)
-    for k, cycle in enumerate(loop.hist_believed_people):
-        for i, people in cycle.items():
-            out[i, k, :len(people)] = people
-    return out
-
-
-def _believed(loop: _Loop) -> np.ndarray:
-    """(R, K, 5): the state each robot believed it was in when it planned; NaN when it did
-    not plan."""
-    out = np.full((loop.n, len(loop.hist_believed), 5), np.nan)
-    for k, believed in enumerate(loop.hist_believed):
-        for i, state in believed.items():
-            out[i, k] = state
-    return out
