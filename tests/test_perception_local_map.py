@@ -292,3 +292,29 @@ def test_the_numpy_and_compiled_traversals_agree(monkeypatch):
     assert results[0][0] == results[1][0]
     assert np.array_equal(results[0][1], results[1][1])
     assert np.array_equal(results[0][2], results[1][2])
+
+
+def test_returns_on_a_face_along_a_cell_edge_mark_the_cells_behind_it():
+    """A wall whose face runs along a cell edge (x = 2.0), seen with 1 mm of range noise: the
+    return's own cell is the free one before the face for about half the beams; marked a
+    centimetre beyond the return, every mark lies behind the face."""
+    angles = np.linspace(-0.6, 0.6, 241)
+    ranges = 2.0 / np.cos(angles) + np.random.default_rng(3).normal(0.0, 0.001, angles.size)
+    scan = LaserScan.from_angles(ranges, angles, 0.1, 30.0, (0.0, 0.0, 0.0), 0.0)
+    before = {}
+    for beyond in (0.0, 0.01):
+        local_map = LocalMap(LocalMapConfig(size=8.0, mark_beyond=beyond))
+        local_map.update(scan)
+        grid = local_map.grid()
+        rows, columns = np.nonzero(grid.occupied)
+        x_centres = grid.origin[0] + (columns + 0.5) * grid.resolution
+        before[beyond] = int(np.sum(x_centres < 2.0))
+        assert np.all(np.abs(x_centres - 2.0) < grid.resolution)        # the face's two columns
+    assert before[0.0] > 10 and before[0.01] == 0
+
+
+def test_marking_beyond_a_return_is_checked():
+    with pytest.raises(InputError, match="mark_beyond"):
+        LocalMapConfig(mark_beyond=0.2)          # more than a cell
+    with pytest.raises(InputError, match="mark_beyond"):
+        LocalMapConfig(mark_beyond=-0.01)

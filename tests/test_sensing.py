@@ -112,7 +112,10 @@ def test_the_lidar_maps_the_wall_and_leaves_a_person_to_the_planner():
     assert ranges[ahead] == pytest.approx(0.7, abs=1e-4)          # the person's near side
     believed, world = senses.perceive(0.0, state, people, [])
     grid = world.grid
-    assert grid is not None and grid.distance([[3.05, 2.0]])[0] <= 0.0   # the wall, marked
+    rows = np.arange(2.0, 4.0, 0.05) + 0.025              # the wall's face, below the person
+    assert grid is not None
+    assert np.mean(grid.distance(np.c_[np.full_like(rows, 3.025), rows]) <= 0.0) >= 0.9
+    assert np.all(grid.distance(np.c_[np.full_like(rows, 2.975), rows]) > 0.0)  # not before it
     assert grid.distance([[2.0, 5.0]])[0] > 0.3          # the person is no mark of the map
     assert len(world.obstacles) == 1 and believed.x == 1.0
     assert senses.counts["returns_on_objects"] > 0

@@ -74,7 +74,7 @@ class Senses:
         if profile.lidar is not None:
             lidar = profile.lidar
             self.local_map = LocalMap(LocalMapConfig(
-                size=lidar.window, resolution=lidar.resolution,
+                size=lidar.window, resolution=lidar.resolution, mark_beyond=lidar.mark_beyond,
                 obstacle_max_range=lidar.range_max, raytrace_max_range=lidar.range_max))
             self.local_map.prepare()
         self.tracker = None if profile.detector is None else PeopleTracker(profile.tracker)

@@ -32,6 +32,7 @@ import yaml
 from ..core.errors import InputError, shown
 from ..core.validation import validate_fields
 from ..perception import TrackerConfig
+from ..perception.local_map import MARK_BEYOND
 
 UST10_FOV = 4.712389
 """Hokuyo UST-10's field of view, rad (270 degrees, +-2.356 rad: the BARN Challenge's Jackal)."""
@@ -57,6 +58,10 @@ class LidarSettings:
     """Side of the square local map that rolls with the robot, m (our choice)."""
     resolution: float = 0.05
     """Cell side of the local map, m (Nav2's costmap default)."""
+    mark_beyond: float = MARK_BEYOND
+    """A return marks the local map's cell this far beyond it, m
+    (:class:`~dsmpepc_nlp.perception.LocalMapConfig`'s ``mark_beyond``; 0.0: the return's own
+    cell, the choice before 2026-12-06)."""
     object_margin: float = 0.1
     """m: a return within an object's radius plus this of a moving object the planner is given
     (a person, another robot) is not marked into the map: the planner plans round it as a
@@ -73,6 +78,7 @@ class LidarSettings:
             "mount_x": dict(low=-10.0, high=10.0),
             "window": dict(low=1.0, high=200.0),
             "resolution": dict(low=0.01, high=1.0),
+            "mark_beyond": dict(low=0.0, high=1.0),
             "object_margin": dict(low=0.0, high=10.0),
         })
         if not self.range_min < self.range_max:
