@@ -76,6 +76,8 @@ def test_settings_are_validated():
         LidarSettings(beams=1)
     with pytest.raises(InputError, match="range_min"):
         LidarSettings(range_min=5.0, range_max=4.0)
+    with pytest.raises(InputError, match="mark_beyond"):      # at profile load, not in a run
+        LidarSettings(mark_beyond=0.06, resolution=0.05)
     with pytest.raises(InputError, match="miss_rate"):
         DetectorSettings(miss_rate=1.5)
     with pytest.raises(InputError, match="delay"):

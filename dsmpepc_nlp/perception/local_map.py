@@ -45,6 +45,7 @@ BARN's even worlds under ``lidar`` (the same 148 of 150 arrive as with 0.0, 0.1 
 held out, the odd worlds: 148 against 147, 0.17 s sooner
 (docs/experiments/2026-12-06-marks-beyond-the-return.md)."""
 
+
 @dataclass(frozen=True)
 class LocalMapConfig:
     """How the local map is built; validated on construction.

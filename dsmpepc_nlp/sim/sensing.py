@@ -81,6 +81,9 @@ class LidarSettings:
             "mark_beyond": dict(low=0.0, high=1.0),
             "object_margin": dict(low=0.0, high=10.0),
         })
+        if self.mark_beyond > self.resolution:
+            raise InputError(f"LidarSettings.mark_beyond={shown(self.mark_beyond)}: expected at "
+                             f"most one cell, resolution ({shown(self.resolution)})")
         if not self.range_min < self.range_max:
             raise InputError(f"LidarSettings.range_min={shown(self.range_min)}: expected below "
                              f"range_max ({shown(self.range_max)})")

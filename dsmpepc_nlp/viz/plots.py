@@ -222,7 +222,7 @@ def draw_believed_people(ax, episode, robot: int, cycle: int) -> None:
     k = min(max(cycle, 0), people.shape[1] - 1)
     while k > 0 and not np.isfinite(episode.believed_states[robot, k, 0]):
         k -= 1
-    label = "believed people, 1 s ahead (dashed)"
+    label = "people as believed (dashed; line: 1 s ahead)"
     for x, y, vx, vy, radius in people[robot, k]:
         if not np.isfinite(x):
             continue
