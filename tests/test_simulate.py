@@ -281,6 +281,18 @@ def test_a_configuration_saved_with_a_field_since_removed_loads_when_it_was_off(
         config_from_dict(saved)
 
 
+def test_a_configuration_saved_with_the_standing_map_loads_without_it():
+    """``prediction`` (the standing map, removed) is dropped whatever it held."""
+    from dsmpepc_nlp.sim.episode import config_from_dict, config_to_dict
+
+    saved = config_to_dict(PlannerConfig())
+    saved["prediction"] = {"standing": 0.1, "gate": 0.5, "standing_map": 1.0}
+    assert config_from_dict(saved) == PlannerConfig()
+    saved["predictions"] = {}                     # a part the package never had still fails
+    with pytest.raises(InputError, match="predictions: unknown part"):
+        config_from_dict(saved)
+
+
 def test_load_rejects_other_files(tmp_path):
     bad = tmp_path / "x.npz"
     np.savez(bad, a=np.zeros(2))

@@ -286,6 +286,9 @@ def config_from_dict(data: dict) -> PlannerConfig:
     for name, value in data.items():
         if name in REMOVED_PARTS:
             continue
+        if name not in parts:
+            raise InputError(f"config: {name}: unknown part of a planner configuration; "
+                             f"expected one of {', '.join(sorted(parts))}")
         if isinstance(value, dict):
             value = {k: float(v) if isinstance(v, str) else v for k, v in value.items()}
             value = BEFORE_THEY_WERE.get(name, {}) | _without_removed(name, value)
